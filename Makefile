@@ -1,0 +1,32 @@
+# Quick start on a fresh machine: `make demo` and `make test`.
+VENV    ?= .venv
+PY      := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+RESULTS ?= results
+
+.PHONY: install demo test test-all bench domains clean
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+## demo: the whole pipeline on defaults, outputs in results/
+demo: $(STAMP)
+	$(PY) examples/demo.py --out $(RESULTS)
+
+## test: the fast test suite (slow tests: make test-all)
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+test-all: $(STAMP)
+	$(PY) -m pytest -q -m ''
+
+bench: $(STAMP)
+	$(PY) benchmarks/run_all.py
+
+clean:
+	rm -rf $(RESULTS) .pytest_cache

@@ -1,0 +1,68 @@
+"""The ``groundsym`` command.
+
+Each subcommand is one module in :mod:`groundsym.commands` that defines ``NAME``, ``HELP``,
+``add_arguments(parser)`` and ``run(args) -> int``; this file only finds and dispatches them, so a
+new command is a new file. User errors (:class:`~groundsym.errors.UserError`) print one line and exit
+with status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from types import ModuleType
+
+from . import __version__
+from . import commands as _commands_pkg
+from .errors import UserError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse's own status for usage errors)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def command_modules() -> list[ModuleType]:
+    mods = []
+    for info in sorted(pkgutil.iter_modules(_commands_pkg.__path__), key=lambda i: i.name):
+        if info.name.startswith("_"):
+            continue
+        mods.append(importlib.import_module(f"{_commands_pkg.__name__}.{info.name}"))
+    return sorted(mods, key=lambda m: getattr(m, "ORDER", 50))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="groundsym", description="Learn grounded relational symbols from continuous "
+                     "robot data and turn them into planning domains.")
+    parser.add_argument("--version", action="version", version=f"groundsym {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for mod in command_modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help(sys.stderr)
+        return 2
+    args.argv = list(sys.argv if argv is None else ["groundsym", *argv])
+    try:
+        return int(args._run(args) or 0)
+    except UserError as exc:
+        print(f"groundsym {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_status
+    except KeyboardInterrupt:
+        print(f"groundsym {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""One module per ``groundsym`` subcommand (see :mod:`groundsym.cli`)."""

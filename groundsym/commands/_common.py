@@ -1,0 +1,46 @@
+"""Argument helpers shared by several subcommands."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import UserError
+from ..sim import split_key_values
+
+
+def positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    return v
+
+
+def nonneg_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be at least 0, got {v}")
+    return v
+
+
+def add_sim_args(p: argparse.ArgumentParser, required: bool = True) -> None:
+    p.add_argument("--sim", required=required, help="simulation by name (tower, bowling, or a plug-in)")
+    p.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE",
+                   help="simulation option, repeatable (see docs/cli.md)")
+
+
+def sim_options(args: argparse.Namespace) -> dict[str, str]:
+    return split_key_values(args.sim_opt, "--sim-opt")
+
+
+def output_path(text: str) -> Path:
+    p = Path(text)
+    if p.exists() and p.is_dir():
+        raise UserError(f"{p}: is a directory, expected a file path")
+    return p

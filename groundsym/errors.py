@@ -1,0 +1,19 @@
+"""User-facing errors.
+
+Anything the user can fix (a malformed file, an unknown name, a bad option) is raised as
+:class:`UserError`. The CLI prints its message as one line and exits with status 2, without a
+traceback. Programming errors stay ordinary exceptions.
+"""
+
+from __future__ import annotations
+
+
+class UserError(Exception):
+    """An error caused by user input; the message names the file, line or field."""
+
+    exit_status = 2
+
+
+def where(path: object, field: str | None = None) -> str:
+    """Format a location prefix such as ``traces.json: traces[0].steps[3].features``."""
+    return f"{path}: {field}" if field else f"{path}"

@@ -1,0 +1,1 @@
+"""Noisy indeterministic deictic (NID) rules: the model (:mod:`.model`) and its learner."""

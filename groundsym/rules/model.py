@@ -1,0 +1,242 @@
+"""NID rules: what a rule is, which rule covers an example, and how likely a transition is.
+
+Semantics follow ALGORITHMS.md A.2-A.4 (Pasula et al. 2007, as libPRADA implements them):
+
+* A :class:`Rule` has an action template over variables (``(openHandOver ?x)``), a context of
+  literals over the action variables and deictic references (any other variable in the context),
+  outcomes (sets of literal changes) with probabilities, and a noise probability ``noise``.
+* A rule *covers* ``(s, a)`` iff exactly one injective binding of its variables makes every
+  context literal true in ``s`` (closed world).
+* A :class:`RuleSet` covers ``(s, a)`` with its unique covering non-default rule, or else with the
+  action's default rule (no change, or noise).
+* ``P(s' | s, a) = noise * p_min + sum of p_i over outcomes i that turn s into s'``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import permutations
+from typing import Iterable, Iterator, Mapping
+
+from ..logic import Atom, Literal, is_variable
+
+P_MIN = 1e-8            # likelihood of any transition under a rule's noise outcome
+P_MIN_DEFAULT = 1e-9    # ... under a default rule's noise outcome
+
+
+@dataclass(frozen=True, order=True)
+class Outcome:
+    """A set of literal changes over rule variables: positive = becomes true, negated = becomes false."""
+
+    changes: tuple[Literal, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "changes", tuple(sorted(set(self.changes))))
+
+    @property
+    def is_empty(self) -> bool:
+        return not self.changes
+
+    def ground(self, binding: Mapping[str, str]) -> tuple[frozenset, frozenset]:
+        """(adds, dels) of the outcome under ``binding``."""
+        adds = frozenset(l.atom.substitute(binding) for l in self.changes if l.positive)
+        dels = frozenset(l.atom.substitute(binding) for l in self.changes if not l.positive)
+        return adds, dels
+
+    def apply(self, state: frozenset, binding: Mapping[str, str]) -> frozenset:
+        adds, dels = self.ground(binding)
+        return (state - dels) | adds
+
+    def __str__(self) -> str:
+        return " ".join(str(c) for c in self.changes) if self.changes else "(no change)"
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One NID rule. ``probs[i]`` belongs to ``outcomes[i]``; ``noise`` is the rest of the mass.
+
+    ``noise_changes`` is the mean number of atoms that changed in the examples this rule explained
+    as noise (PRADA spreads the noise mass with it).
+    """
+
+    action: Atom
+    context: tuple[Literal, ...]
+    outcomes: tuple[Outcome, ...]
+    probs: tuple[float, ...]
+    noise: float
+    noise_changes: float = 0.0
+
+    def __post_init__(self) -> None:
+        if len(self.outcomes) != len(self.probs):
+            raise ValueError("one probability per outcome")
+        if any(p < -1e-12 for p in self.probs) or self.noise < -1e-12:
+            raise ValueError("negative probability")
+        if abs(sum(self.probs) + self.noise - 1.0) > 1e-6:
+            raise ValueError(f"probabilities sum to {sum(self.probs) + self.noise}, not 1")
+        if len(set(self.action.args)) != len(self.action.args) or not all(map(is_variable, self.action.args)):
+            raise ValueError(f"action template needs distinct variables: {self.action}")
+
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """Action variables first, then deictic references in order of first appearance."""
+        seen = list(self.action.args)
+        for lit in self.context:
+            for a in lit.atom.args:
+                if is_variable(a) and a not in seen:
+                    seen.append(a)
+        return tuple(seen)
+
+    @property
+    def deictic(self) -> tuple[str, ...]:
+        return self.variables[len(self.action.args):]
+
+    def complexity(self) -> int:
+        """PEN(r): context literals plus literals across all outcomes (A.5)."""
+        return len(self.context) + sum(len(o.changes) for o in self.outcomes)
+
+    def bindings(self, state: frozenset, action: Atom, injective: bool = True,
+                 objects: Iterable[str] | None = None, limit: int = 2) -> list[dict[str, str]]:
+        """Up to ``limit`` bindings of all variables under which the context holds in ``state``."""
+        if action.predicate != self.action.predicate or action.arity != self.action.arity:
+            return []
+        base = dict(zip(self.action.args, action.args))
+        if injective and len(set(action.args)) != len(action.args):
+            return []
+        return list(_bindings(self.context, state, base, injective, objects, limit))
+
+    def covers(self, state: frozenset, action: Atom, injective: bool = True,
+               objects: Iterable[str] | None = None) -> dict[str, str] | None:
+        """The unique binding if this rule covers ``(state, action)``, else None."""
+        found = self.bindings(state, action, injective, objects, limit=2)
+        return found[0] if len(found) == 1 else None
+
+    def likelihood(self, state: frozenset, binding: Mapping[str, str], succ: frozenset,
+                   p_min: float = P_MIN) -> float:
+        p = self.noise * p_min
+        for o, po in zip(self.outcomes, self.probs):
+            if o.apply(state, binding) == succ:
+                p += po
+        return p
+
+
+@dataclass(frozen=True)
+class DefaultRule:
+    """What happens when no rule (or more than one) covers: no change, or noise."""
+
+    p_noise: float = 0.5
+
+    @property
+    def p_nochange(self) -> float:
+        return 1.0 - self.p_noise
+
+    def likelihood(self, state: frozenset, succ: frozenset, p_min: float = P_MIN_DEFAULT) -> float:
+        return self.p_nochange * (state == succ) + self.p_noise * p_min
+
+
+@dataclass(frozen=True)
+class RuleSet:
+    """Rules for all actions, with one default rule per action name."""
+
+    rules: tuple[Rule, ...] = ()
+    defaults: tuple[tuple[str, DefaultRule], ...] = ()
+    p_min: float = P_MIN
+    p_min_default: float = P_MIN_DEFAULT
+    injective: bool = True
+    _by_action: dict = field(default=None, compare=False, repr=False)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        table: dict[str, list[Rule]] = {}
+        for r in self.rules:
+            table.setdefault(r.action.predicate, []).append(r)
+        object.__setattr__(self, "_by_action", table)
+
+    def rules_for(self, action_name: str) -> list[Rule]:
+        return self._by_action.get(action_name, [])
+
+    def default_for(self, action_name: str) -> DefaultRule:
+        for name, d in self.defaults:
+            if name == action_name:
+                return d
+        return DefaultRule()
+
+    def covering(self, state: frozenset, action: Atom,
+                 objects: Iterable[str] | None = None) -> tuple[Rule | None, dict[str, str] | None]:
+        """The unique covering non-default rule and its binding, or (None, None) for the default."""
+        hit: tuple[Rule, dict[str, str]] | None = None
+        for r in self.rules_for(action.predicate):
+            b = r.covers(state, action, self.injective, objects)
+            if b is not None:
+                if hit is not None:
+                    return None, None
+                hit = (r, b)
+        return hit if hit is not None else (None, None)
+
+    def likelihood(self, state: frozenset, action: Atom, succ: frozenset,
+                   objects: Iterable[str] | None = None) -> float:
+        r, b = self.covering(state, action, objects)
+        if r is None:
+            return self.default_for(action.predicate).likelihood(state, succ, self.p_min_default)
+        return r.likelihood(state, b, succ, self.p_min)
+
+
+def _bindings(context: tuple[Literal, ...], state: frozenset, base: dict[str, str], injective: bool,
+              objects: Iterable[str] | None, limit: int) -> Iterator[dict[str, str]]:
+    """Backtracking search: bind variables through positive literals, then check the rest."""
+    pos = [l for l in context if l.positive]
+    neg = [l for l in context if not l.positive]
+    index: dict[tuple[str, int], list[tuple[str, ...]]] = {}
+    for a in state:
+        index.setdefault((a.predicate, a.arity), []).append(a.args)
+    free_in_neg = {v for l in neg for v in l.atom.args if is_variable(v)}
+    free_in_pos = {v for l in pos for v in l.atom.args if is_variable(v)}
+    unbound_neg_only = free_in_neg - free_in_pos - set(base)
+    universe = sorted(set(objects) if objects is not None else {x for a in state for x in a.args})
+    count = 0
+
+    def check_rest(b: dict[str, str]) -> Iterator[dict[str, str]]:
+        # variables only in negated literals (not allowed in learned rules, but tolerated): enumerate
+        extra = sorted(unbound_neg_only)
+        used = set(b.values())
+        pool = [o for o in universe if not (injective and o in used)]
+        for combo in permutations(pool, len(extra)) if extra else [()]:
+            bb = dict(b, **dict(zip(extra, combo)))
+            if all((l.atom.substitute(bb) in state) is False for l in neg):
+                yield bb
+
+    def rec(i: int, b: dict[str, str]) -> Iterator[dict[str, str]]:
+        if i == len(pos):
+            yield from check_rest(b)
+            return
+        lit = pos[i]
+        for args in index.get((lit.atom.predicate, lit.atom.arity), ()):
+            nb = b
+            ok = True
+            for term, val in zip(lit.atom.args, args):
+                if is_variable(term):
+                    cur = nb.get(term)
+                    if cur is None:
+                        if injective and val in nb.values():
+                            ok = False
+                            break
+                        if nb is b:
+                            nb = dict(b)
+                        nb[term] = val
+                    elif cur != val:
+                        ok = False
+                        break
+                elif term != val:
+                    ok = False
+                    break
+            if ok:
+                yield from rec(i + 1, nb)
+
+    seen: set[tuple] = set()
+    for b in rec(0, dict(base)):
+        key = tuple(sorted(b.items()))
+        if key in seen:
+            continue
+        seen.add(key)
+        yield b
+        count += 1
+        if count >= limit:
+            return

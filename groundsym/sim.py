@@ -1,0 +1,105 @@
+"""The Sim protocol every simulation implements, and its typed options.
+
+A simulation owns a physical world and exposes it the way the learner sees it: the scene's objects
+with their geometric features and reward, the primitives it can run, and, for evaluation only,
+ground-truth atoms. ``sims/tower.py`` and ``sims/bowling.py`` implement it; users can plug in their
+own through the ``groundsym.sims`` entry-point group.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, ClassVar, Mapping, Protocol, runtime_checkable
+
+from .errors import UserError
+from .logic import Atom
+from .world import Scene
+
+
+@dataclass(frozen=True)
+class SimOption:
+    """One ``--sim-opt key=value`` option: its type, default and meaning."""
+
+    name: str
+    kind: Callable[[str], Any]
+    default: Any
+    doc: str
+
+
+def parse_options(sim_name: str, spec: tuple[SimOption, ...], given: Mapping[str, Any]) -> dict[str, Any]:
+    """Typed options from strings (or values) given by the user; unknown names are user errors."""
+    known = {o.name: o for o in spec}
+    out = {o.name: o.default for o in spec}
+    for key, raw in given.items():
+        if key not in known:
+            raise UserError(f"--sim-opt {key}: unknown option for sim {sim_name!r} "
+                            f"(known: {', '.join(sorted(known)) or 'none'})")
+        opt = known[key]
+        try:
+            val = opt.kind(raw) if isinstance(raw, str) else opt.kind(raw)
+        except (TypeError, ValueError):
+            raise UserError(f"--sim-opt {key}={raw}: expected {getattr(opt.kind, '__name__', 'a value')}") from None
+        out[key] = val
+    return out
+
+
+def parse_bool(text: str | bool) -> bool:
+    if isinstance(text, bool):
+        return text
+    t = str(text).strip().lower()
+    if t in ("1", "true", "yes", "on"):
+        return True
+    if t in ("0", "false", "no", "off"):
+        return False
+    raise ValueError(text)
+
+
+parse_bool.__name__ = "bool"
+
+
+def split_key_values(items: list[str] | None, flag: str) -> dict[str, str]:
+    """``["a=1", "b=x"]`` -> ``{"a": "1", "b": "x"}``; malformed items are user errors."""
+    out: dict[str, str] = {}
+    for item in items or []:
+        for part in item.split():
+            if "=" not in part:
+                raise UserError(f"{flag} {part}: expected key=value")
+            k, v = part.split("=", 1)
+            out[k.strip()] = v.strip()
+    return out
+
+
+@runtime_checkable
+class Sim(Protocol):
+    """What the core needs from a simulation.
+
+    Class attributes describe the task; instances hold one physical world. All randomness comes
+    from the seed given to :meth:`reset`, so the same seed and options give the same trace.
+    """
+
+    name: ClassVar[str]
+    OPTIONS: ClassVar[tuple[SimOption, ...]]
+    feature_names: tuple[str, ...]         # names of the n unary feature dimensions
+    primitives: dict[str, int]             # primitive name -> arity
+    truth_predicates: dict[str, int]       # ground-truth relation name -> arity (evaluation only)
+    episode_length: int                    # T of the task (10 for the tower, 2 for bowling)
+    gamma: float                           # discount of the episode value sum_t gamma^(t-1) r_t
+
+    def reset(self, seed: int) -> Scene:
+        """Start a new episode from a random start state drawn with ``seed``."""
+
+    def scene(self) -> Scene:
+        """The current observation (features, reward, ground truth)."""
+
+    def actions(self) -> list[Atom]:
+        """All ground primitives that can be run now."""
+
+    def step(self, action: Atom) -> Scene:
+        """Run one primitive until the world settles; return the new scene."""
+
+    def render(self, path: str | Path, width: int = 640, height: int = 480) -> None:
+        """Write a PNG of the current scene."""
+
+    def close(self) -> None:
+        """Release the physics engine."""
