@@ -1,0 +1,1 @@
+"""Policies that pick the next primitive (found by name via groundsym.registry)."""
