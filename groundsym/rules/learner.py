@@ -1,0 +1,379 @@
+"""Learning NID rule sets from symbolic transitions (LNDR, ALGORITHMS.md A.5, A.8-A.9).
+
+Learning runs separately for each action name (A.1): the score adds up across actions, so each
+search is small. A search starts from the default rule alone and applies the operators
+ExplainExamples, DropRules, DropLits, DropRefs, AddLits, AddRefs and SplitOnLits, keeping the best
+candidate of an operator when it raises
+
+    S(R) = sum_e w_e log P(s'|s,a,R) - alpha * sum_r PEN(r)
+
+until no operator helps. Every candidate rule is completed by :func:`induce_outcomes` (A.7) on the
+examples it covers, and ``integrate`` removes the rules it overlaps, so on the training data each
+example is covered by at most one rule and the default rule takes the rest.
+
+Defaults (documented in docs/rules.md): ``alpha = 0.5`` and ``p_min = 1e-8`` (``1e-9`` for the
+default rule), as in the libPRADA demos and GLIB; the default rule's noise share is the weighted
+share of changed examples it covers, clipped to ``[0.01, 0.99]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import permutations, product
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+
+from ..logic import Atom, Literal, is_variable
+from ..progress import Progress
+from .coverage import Coverage, Example, ExampleTable
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet
+from .outcomes import OutcomeFit, induce_outcomes
+
+ALPHA = 0.5
+DEFAULT_CLIP = (0.01, 0.99)
+
+
+@dataclass(frozen=True)
+class LearnOptions:
+    """Knobs of the rule learner; the defaults are the documented ones (A.10)."""
+
+    alpha: float = ALPHA
+    p_min: float = P_MIN
+    p_min_default: float = P_MIN_DEFAULT
+    injective: bool = True
+    default_clip: tuple[float, float] = DEFAULT_CLIP
+    max_seeds: int = 25          # ExplainExamples seed examples per call (GLIB uses 25)
+    max_rounds: int = 100        # operator rounds per action
+    max_deictic: int = 2         # deictic references per rule
+
+
+@dataclass(frozen=True)
+class RuleFit:
+    """A rule with the training examples it covers and its log-likelihood on them."""
+
+    rule: Rule
+    covered: frozenset[int]
+    loglik: float
+
+    @property
+    def pen(self) -> int:
+        return self.rule.complexity()
+
+
+def examples_from_transitions(transitions: Iterable[tuple[frozenset, Atom, frozenset, tuple[str, ...]]]
+                              ) -> list[Example]:
+    """Merge identical transitions into weighted examples (same score, less work; A.5)."""
+    counts: dict[tuple, float] = {}
+    for s, a, s2, objs in transitions:
+        key = (s, a, s2, tuple(objs))
+        counts[key] = counts.get(key, 0.0) + 1.0
+    return [Example(s, a, s2, objs, w) for (s, a, s2, objs), w in counts.items()]
+
+
+def examples_from_dataset(ds) -> list[Example]:
+    """Weighted examples of a :class:`~groundsym.symbolic_traces.SymbolicDataset`."""
+    return examples_from_transitions((s, a, s2, tr.objects) for tr in ds.traces for s, a, s2 in tr.transitions())
+
+
+@dataclass
+class LearnReport:
+    """What the search did, per action: score, rules, operator successes, examples."""
+
+    per_action: dict[str, dict] = field(default_factory=dict)
+
+    @property
+    def score(self) -> float:
+        return sum(v["score"] for v in self.per_action.values())
+
+
+def learn_rules(examples: Sequence[Example], predicates: dict[str, int], options: LearnOptions = LearnOptions(),
+                *, seed: int = 0, progress: bool = True) -> tuple[RuleSet, LearnReport]:
+    """Learn one rule set (with one default rule per action name) from weighted examples."""
+    rng = np.random.default_rng(seed)
+    by_action: dict[tuple[str, int], list[Example]] = {}
+    for e in examples:
+        by_action.setdefault((e.action.predicate, e.action.arity), []).append(e)
+    rules: list[Rule] = []
+    defaults: list[tuple[str, DefaultRule]] = []
+    report = LearnReport()
+    bar = Progress(len(by_action), "learning rules", enabled=progress)
+    for k, (name, arity) in enumerate(sorted(by_action)):
+        learner = ActionLearner(ExampleTable(by_action[(name, arity)], predicates), name, arity, options,
+                                np.random.default_rng(rng.integers(2**63)))
+        fits, default, stats = learner.learn()
+        rules.extend(_canonical(f.rule) for f in fits)
+        defaults.append((name, default))
+        report.per_action[name] = stats
+        bar.update(k + 1, f"{name}: {len(fits)} rules, score {stats['score']:.2f}")
+    bar.close()
+    rs = RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, options.injective)
+    return rs, report
+
+
+class ActionLearner:
+    """Rule-set search for the examples of one action name."""
+
+    def __init__(self, table: ExampleTable, name: str, arity: int, opts: LearnOptions,
+                 rng: np.random.Generator):
+        self.table = table
+        self.opts = opts
+        self.rng = rng
+        self.action = Atom(name, tuple(f"?x{i + 1}" for i in range(arity)))
+        self._fits: dict[tuple[Literal, ...], RuleFit | None] = {}
+        self.total_w = float(table.weights.sum())
+
+    # --- fitting and scoring -------------------------------------------------------------------
+    def fit(self, context: Iterable[Literal]) -> RuleFit | None:
+        """The rule with this context, its outcomes induced on what it covers (None if invalid)."""
+        ctx = tuple(sorted(set(context)))
+        if ctx in self._fits:
+            return self._fits[ctx]
+        result = None
+        if _valid_context(ctx, self.action, self.opts.max_deictic):
+            cov = self.table.cover(self.action, ctx, self.opts.injective)
+            if len(cov):
+                of = induce_outcomes(self.table, cov, self.opts.alpha, self.opts.p_min)
+                result = RuleFit(_make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik)
+        self._fits[ctx] = result
+        return result
+
+    def default(self, fits: Sequence[RuleFit]) -> tuple[DefaultRule, float]:
+        """Fit the default rule on the examples no rule covers; its log-likelihood there."""
+        mask = np.ones(len(self.table), dtype=bool)
+        for f in fits:
+            mask[list(f.covered)] = False
+        w = self.table.weights[mask]
+        ch = self.table.changed[mask]
+        lo, hi = self.opts.default_clip
+        p_noise = float(np.clip(w[ch].sum() / w.sum(), lo, hi)) if w.sum() > 0 else 0.5
+        d = DefaultRule(p_noise)
+        pm = self.opts.p_min_default
+        ll = float(w[~ch].sum() * np.log(d.p_nochange + p_noise * pm) + w[ch].sum() * np.log(p_noise * pm))
+        return d, ll
+
+    def score(self, fits: Sequence[RuleFit]) -> float:
+        _, ll = self.default(fits)
+        return ll + sum(f.loglik - self.opts.alpha * f.pen for f in fits)
+
+    @staticmethod
+    def integrate(fits: Sequence[RuleFit], new: Sequence[RuleFit]) -> tuple[RuleFit, ...]:
+        """Add ``new`` rules, removing every rule that shares a covered example with one of them."""
+        out = list(fits)
+        for r in new:
+            out = [f for f in out if not (f.covered & r.covered)]
+            out.append(r)
+        return tuple(out)
+
+    # --- the search ----------------------------------------------------------------------------
+    def learn(self) -> tuple[list[RuleFit], DefaultRule, dict]:
+        ops: list[tuple[str, Callable[[tuple[RuleFit, ...]], Iterable[tuple[RuleFit, ...]]]]] = [
+            ("ExplainExamples", self.explain_examples), ("DropRules", self.drop_rules),
+            ("DropLits", self.drop_lits), ("DropRefs", self.drop_refs), ("AddLits", self.add_lits),
+            ("AddRefs", self.add_refs), ("SplitOnLits", self.split_on_lits)]
+        R: tuple[RuleFit, ...] = ()
+        best = self.score(R)
+        successes = {name: 0 for name, _ in ops}
+        for _ in range(self.opts.max_rounds):
+            improved = False
+            for name, op in ops:
+                cand, sc = self._best_of(op(R))
+                if cand is not None and sc > best + 1e-9:
+                    R, best, improved = cand, sc, True
+                    successes[name] += 1
+            if not improved:
+                break
+        d, _ = self.default(R)
+        fits = sorted(R, key=lambda f: str(f.rule.context))
+        stats = {"score": best, "rules": len(fits), "examples": int(len(self.table)),
+                 "transitions": self.total_w, "successes": successes}
+        return fits, d, stats
+
+    def _best_of(self, cands: Iterable[tuple[RuleFit, ...]]) -> tuple[tuple[RuleFit, ...] | None, float]:
+        best, best_sc = None, -np.inf
+        for c in cands:
+            sc = self.score(c)
+            if sc > best_sc:
+                best, best_sc = c, sc
+        return best, best_sc
+
+    # --- operators (A.9) -----------------------------------------------------------------------
+    def explain_examples(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        covered = set().union(*(f.covered for f in R)) if R else set()
+        free = [i for i in range(len(self.table)) if i not in covered]
+        changed = [i for i in free if self.table.changed[i]]
+        same = [i for i in free if not self.table.changed[i]]
+        order = list(self.rng.permutation(changed)) + list(self.rng.permutation(same))
+        seen: set = set()
+        for i in order[: self.opts.max_seeds]:
+            f = self._explain(int(i))
+            if f is not None and f.rule.context not in seen:
+                seen.add(f.rule.context)
+                yield self.integrate(R, [f])
+
+    def _explain(self, i: int) -> RuleFit | None:
+        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily."""
+        ex = self.table.examples[i]
+        if self.opts.injective and len(set(ex.action.args)) != len(ex.action.args):
+            return None
+        sigma = dict(zip(ex.action.args, self.action.args))       # object -> variable
+        ctx = set(_lift_atoms(ex.state, sigma, positive=True))
+        ctx |= set(_absent_literals(ex.state, sigma, self.table.predicates, self.opts.injective))
+        changed_objs = sorted({x for a in ex.adds | ex.dels for x in a.args} - set(sigma))
+        for c in changed_objs:
+            if len(sigma) - len(self.action.args) >= self.opts.max_deictic:
+                return None
+            trial = dict(sigma, **{c: f"?y{len(sigma) - len(self.action.args) + 1}"})
+            lits = [l for l in _lift_atoms(ex.state, trial, positive=True) if trial[c] in l.atom.args]
+            if lits and _unique(ex, self.action, ctx | set(lits), self.opts.injective):
+                sigma, ctx = trial, ctx | set(lits)
+            else:
+                return None
+        if self.fit(ctx) is None or i not in self.fit(ctx).covered:
+            return None
+        return self._trim(ctx, i, {sigma[c] for c in changed_objs})
+
+    def _trim(self, ctx: set[Literal], seed: int, needed_vars: set[str]) -> RuleFit | None:
+        """Greedily drop literals, then whole references, while the score of {r, default} rises."""
+        def ok(f: RuleFit | None) -> bool:
+            return f is not None and seed in f.covered and needed_vars <= set(f.rule.variables)
+
+        cur = self.fit(ctx)
+        cur_sc = self.score((cur,))
+        for drop_vars in (False, True):
+            while True:
+                if drop_vars:
+                    cands = [{l for l in ctx if v not in l.atom.args} for v in _deictic(ctx, self.action)]
+                else:
+                    cands = [ctx - {l} for l in sorted(ctx)]
+                best, best_sc, best_ctx = None, cur_sc, None
+                for c in cands:
+                    f = self.fit(c)
+                    if ok(f):
+                        sc = self.score((f,))
+                        if sc > best_sc + 1e-9:
+                            best, best_sc, best_ctx = f, sc, c
+                if best is None:
+                    break
+                cur, cur_sc, ctx = best, best_sc, best_ctx
+        return cur
+
+    def drop_rules(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k in range(len(R)):
+            yield R[:k] + R[k + 1:]
+
+    def _replace(self, R: tuple[RuleFit, ...], k: int, contexts: Iterable[Iterable[Literal]]
+                 ) -> Iterable[tuple[RuleFit, ...]]:
+        rest = R[:k] + R[k + 1:]
+        for ctx in contexts:
+            f = self.fit(ctx)
+            if f is not None and f.rule.context != R[k].rule.context:
+                yield self.integrate(rest, [f])
+
+    def drop_lits(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k, f in enumerate(R):
+            ctx = set(f.rule.context)
+            yield from self._replace(R, k, (ctx - {l} for l in f.rule.context))
+
+    def drop_refs(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k, f in enumerate(R):
+            ctx = f.rule.context
+            yield from self._replace(R, k, ([l for l in ctx if v not in l.atom.args] for v in f.rule.deictic))
+
+    def add_lits(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k, f in enumerate(R):
+            ctx = set(f.rule.context)
+            yield from self._replace(R, k, (ctx | {l} for a in self._absent_atoms(f.rule)
+                                            for l in (Literal(a, True), Literal(a, False))))
+
+    def add_refs(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k, f in enumerate(R):
+            if len(f.rule.deictic) >= self.opts.max_deictic:
+                continue
+            v = _fresh(f.rule)
+            vars_ = (*f.rule.variables, v)
+            atoms = [a for a in _atoms_over(vars_, self.table.predicates, self.opts.injective) if v in a.args]
+            ctx = set(f.rule.context)
+            yield from self._replace(R, k, (ctx | {Literal(a, True)} for a in atoms))
+
+    def split_on_lits(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        for k, f in enumerate(R):
+            rest = R[:k] + R[k + 1:]
+            ctx = set(f.rule.context)
+            for a in self._absent_atoms(f.rule):
+                halves = [h for h in (self.fit(ctx | {Literal(a, True)}), self.fit(ctx | {Literal(a, False)}))
+                          if h is not None]
+                if len(halves) == 2:
+                    yield self.integrate(rest, halves)
+
+    def _absent_atoms(self, rule: Rule) -> list[Atom]:
+        present = {l.atom for l in rule.context}
+        return [a for a in _atoms_over(rule.variables, self.table.predicates, self.opts.injective)
+                if a not in present]
+
+
+# --- helpers -------------------------------------------------------------------------------------
+def _make_rule(action: Atom, ctx: tuple[Literal, ...], of: OutcomeFit) -> Rule:
+    return Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
+
+
+def _deictic(ctx: Iterable[Literal], action: Atom) -> list[str]:
+    out: list[str] = []
+    for l in sorted(ctx):
+        for a in l.atom.args:
+            if is_variable(a) and a not in action.args and a not in out:
+                out.append(a)
+    return out
+
+
+def _valid_context(ctx: tuple[Literal, ...], action: Atom, max_deictic: int) -> bool:
+    """No contradictions, no deictic reference that only negated literals mention, few references."""
+    atoms = {l.atom for l in ctx}
+    if len(atoms) != len(ctx):
+        return False
+    pos_vars = {a for l in ctx if l.positive for a in l.atom.args}
+    deictic = _deictic(ctx, action)
+    return len(deictic) <= max_deictic and all(v in pos_vars for v in deictic)
+
+
+def _lift_atoms(state: frozenset, sigma: dict[str, str], positive: bool) -> list[Literal]:
+    """Atoms of ``state`` whose arguments are all bound by ``sigma``, over variables."""
+    return [Literal(a.substitute(sigma), positive) for a in sorted(state) if all(x in sigma for x in a.args)]
+
+
+def _atoms_over(variables: Sequence[str], predicates: dict[str, int], injective: bool) -> list[Atom]:
+    out = []
+    for p, k in sorted(predicates.items()):
+        gen = permutations(variables, k) if injective else product(variables, repeat=k)
+        out.extend(Atom(p, tuple(args)) for args in gen)
+    return out
+
+
+def _absent_literals(state: frozenset, sigma: dict[str, str], predicates: dict[str, int],
+                     injective: bool) -> list[Literal]:
+    """Negated literals for the atoms over ``sigma``'s objects that are false in ``state``."""
+    inv = {v: o for o, v in sigma.items()}
+    return [Literal(a, False) for a in _atoms_over(sorted(inv), predicates, injective)
+            if a.substitute(inv) not in state]
+
+
+def _unique(ex: Example, action: Atom, ctx: set[Literal], injective: bool) -> bool:
+    probe = Rule(action, tuple(sorted(ctx)), (), (), 1.0)
+    return probe.covers(ex.state, ex.action, injective, ex.objects) is not None
+
+
+def _fresh(rule: Rule) -> str:
+    k = 1
+    while f"?y{k}" in rule.variables:
+        k += 1
+    return f"?y{k}"
+
+
+def _canonical(rule: Rule) -> Rule:
+    """Rename deictic references ?y1, ?y2, ... in order of first appearance (readable, stable)."""
+    ren = {v: f"?y{i + 1}" for i, v in enumerate(rule.deictic)}
+    if all(k == v for k, v in ren.items()):
+        return rule
+    ctx = tuple(sorted(l.substitute(ren) for l in rule.context))
+    outs = tuple(type(o)(tuple(l.substitute(ren) for l in o.changes)) for o in rule.outcomes)
+    return Rule(rule.action, ctx, outs, rule.probs, rule.noise, rule.noise_changes)
