@@ -1,0 +1,213 @@
+"""The bowling alley against physics truth: what a throw must knock down, what a fallen pin looks like."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as pb
+import pytest
+
+from groundsym.errors import UserError
+from groundsym.logic import Atom
+from groundsym.registry import make_sim
+from groundsym.sim import Sim
+from sims.bowling import BowlingSim, truth_atoms
+from sims.bowling_world import PIN_COM_Z, PIN_SPACING, ROW_DEPTH, rack_positions
+
+
+def fallen_spots(sim: BowlingSim, scene) -> set[int]:
+    """Rack spot numbers of the pins that are not upright in ``scene``."""
+    return {sim.spots[i] for i, o in enumerate(scene.objects) if Atom("upright", (o,)) not in scene.truth}
+
+
+@pytest.fixture(scope="module")
+def rack():
+    with BowlingSim() as sim:
+        yield sim
+
+
+def test_implements_the_sim_protocol_and_is_registered():
+    with make_sim("bowling", {"pins": "5"}) as sim:
+        assert isinstance(sim, Sim)
+        assert sim.feature_names == ("x", "y", "z", "ux", "uy", "uz")
+        assert sim.primitives == {"throwAtCenter": 1, "throwRightOfCenter": 1}
+        scene = sim.reset(3)
+        assert scene.objects == ("p1", "p2", "p3", "p4", "p5")
+        assert len(sim.actions()) == 10
+
+
+def test_fresh_rack_matches_the_regulation_triangle(rack):
+    """Spots 20 cm apart on a 60 cm triangle, pins standing at rest, hand-counted relations."""
+    scene = rack.reset(0)
+    feats = scene.features
+    np.testing.assert_allclose(feats[:, :2], rack_positions(), atol=1e-3)
+    np.testing.assert_allclose(feats[:, 2], PIN_COM_Z, atol=1e-3)
+    np.testing.assert_allclose(feats[:, 3:], np.tile([0, 0, 1], (10, 1)), atol=3e-3)  # < 0.2 degrees
+    corners = rack_positions()[[0, 6, 9]]
+    sides = [np.linalg.norm(corners[i] - corners[j]) for i, j in ((0, 1), (1, 2), (0, 2))]
+    np.testing.assert_allclose(sides, 0.60, atol=1e-9)
+    assert scene.reward == 0.0
+    by_name: dict[str, int] = {}
+    for atom in scene.truth:
+        by_name[atom.predicate] = by_name.get(atom.predicate, 0) + 1
+    # columns shared by two spots: 1-5, 2-8, 3-9, in both orders; behind: pairs in different rows
+    assert by_name == {"upright": 10, "sameColumn": 6, "behind": 1 * 9 + 2 * 7 + 3 * 4}
+    obj = dict(zip(rack.spots, scene.objects))
+    assert Atom("sameColumn", (obj[5], obj[1])) in scene.truth
+    assert Atom("behind", (obj[5], obj[1])) in scene.truth
+    assert Atom("behind", (obj[1], obj[5])) not in scene.truth
+
+
+def test_straight_throw_at_the_head_pin_knocks_down_several(rack):
+    """Across seeds (noisy starts), the head pin always falls and takes at least three others."""
+    counts = []
+    for seed in range(4):
+        rack.reset(seed)
+        scene = rack.step(Atom("throwAtCenter", ("p1",)))
+        down = fallen_spots(rack, scene)
+        assert 1 in down
+        assert scene.reward == len(down)
+        counts.append(len(down))
+    assert min(counts) >= 4, counts
+
+
+def test_throw_down_an_empty_lane_knocks_only_that_column():
+    """Spots 2 and 8 share a column whose neighbouring columns hold no pins: only they fall."""
+    with BowlingSim(spots="2,8,6,10") as sim:
+        for seed in range(3):
+            scene = sim.reset(seed)
+            assert Atom("sameColumn", ("p1", "p2")) in scene.truth
+            after = sim.step(Atom("throwAtCenter", ("p1",)))
+            assert fallen_spots(sim, after) == {2, 8}
+            assert after.reward == 2.0
+            # the untouched pins have not moved
+            np.testing.assert_allclose(after.features[2:], scene.features[2:], atol=2e-3)
+
+
+def test_fallen_pins_stay_for_the_second_throw():
+    """A second throw down the same empty column finds the pins where the first left them."""
+    with BowlingSim(spots="4,9", noise=0.0, speed_noise=0.0) as sim:
+        sim.reset(0)
+        first = sim.step(Atom("throwAtCenter", ("p2",)))          # spot 9, x = +0.1
+        assert fallen_spots(sim, first) == {9}
+        second = sim.step(Atom("throwAtCenter", ("p1",)))         # spot 4, x = -0.2
+        assert fallen_spots(sim, second) == {4, 9}
+        assert second.reward == 2.0
+        # pin 9 lay still while the ball passed 30 cm to its left
+        np.testing.assert_allclose(second.features[1], first.features[1], atol=2e-3)
+
+
+def test_a_pin_on_its_side_is_not_upright_and_its_axis_is_horizontal():
+    """Lay a pin down by hand (rotated 90 degrees about x), let it settle, read its features."""
+    with BowlingSim(spots="1,7") as sim:
+        sim.reset(0)
+        body, client = sim.alley.pins[1], sim.alley.client
+        quat = pb.getQuaternionFromEuler((math.pi / 2, 0, 0))
+        pb.resetBasePositionAndOrientation(body, (-0.3, 0.6, 0.05), quat, physicsClientId=client)
+        sim.alley.run(3.0)
+        scene = sim.scene()
+        lying = scene.features[1]
+        assert Atom("upright", ("p2",)) not in scene.truth
+        assert Atom("upright", ("p1",)) in scene.truth
+        assert abs(lying[5]) < 0.1                           # uz: the axis lies in the deck plane
+        assert math.isclose(np.linalg.norm(lying[3:]), 1.0, abs_tol=1e-6)
+        assert lying[2] < 0.6 * PIN_COM_Z                    # its centre is lower than a standing pin's
+        assert scene.reward == 1.0
+
+
+def test_fallen_pins_after_a_throw_lie_flat_or_lean():
+    """Every pin the physics knocked down has its axis far from vertical."""
+    with BowlingSim() as sim:
+        sim.reset(1)
+        scene = sim.step(Atom("throwRightOfCenter", ("p1",)))
+        down = [i for i, o in enumerate(scene.objects) if Atom("upright", (o,)) not in scene.truth]
+        assert len(down) >= 3
+        on_deck = [i for i in down if scene.features[i, 2] > -0.01]
+        assert on_deck, "some pin should fall on the deck"
+        assert all(scene.features[i, 5] < math.cos(math.radians(20)) for i in on_deck)
+
+
+def test_same_seed_same_game_bit_for_bit_and_seeds_differ():
+    def game(seed: int) -> list[np.ndarray]:
+        with BowlingSim(pins=5) as sim:
+            scenes = [sim.reset(seed)]
+            for obj in ("p1", "p3"):
+                scenes.append(sim.step(Atom("throwAtCenter", (obj,))))
+            return [s.features for s in scenes] + [np.array([s.reward for s in scenes])]
+
+    a, b, c = game(7), game(7), game(8)
+    for x, y in zip(a, b):
+        assert np.array_equal(x, y)
+    assert any(x.shape != y.shape or not np.array_equal(x, y) for x, y in zip(a, c))
+
+
+def test_small_worlds_use_random_subsets_of_the_rack():
+    with BowlingSim(pins=5) as sim:
+        racks = set()
+        for seed in range(6):
+            scene = sim.reset(seed)
+            assert len(scene.objects) == 5 and len(set(sim.spots)) == 5
+            spots = rack_positions()[np.array(sim.spots) - 1]
+            np.testing.assert_allclose(scene.features[:, :2], spots, atol=1e-3)
+            racks.add(sim.spots)
+        assert len(racks) > 1
+
+
+def test_truth_relations_from_hand_made_features():
+    """Column and row tolerances: 5 cm across the lane, half a row (8.7 cm) down it."""
+    up = [0, 0, 1]
+    side = [1, 0, 0]
+    feats = np.array([[0.0, 0.0, PIN_COM_Z, *up],
+                      [0.04, 0.5, PIN_COM_Z, *up],                 # same column, behind
+                      [0.06, 0.0 + ROW_DEPTH / 2 - 0.01, 0.04, *side],  # neither, lying
+                      [PIN_SPACING, -0.3, PIN_COM_Z - 0.05, *up]])  # upright axis but in the gutter
+    objs = ("a", "b", "c", "d")
+    truth = truth_atoms(objs, feats)
+    assert {a for a in truth if a.predicate == "upright"} == {Atom("upright", ("a",)), Atom("upright", ("b",))}
+    assert {a for a in truth if a.predicate == "sameColumn"} == {Atom("sameColumn", ("a", "b")),
+                                                                 Atom("sameColumn", ("b", "a")),
+                                                                 Atom("sameColumn", ("b", "c")),
+                                                                 Atom("sameColumn", ("c", "b"))}
+    assert {a.args for a in truth if a.predicate == "behind"} == {("b", "a"), ("b", "c"), ("b", "d"),
+                                                                  ("a", "d"), ("c", "d")}
+
+
+@pytest.mark.parametrize("options, field", [
+    ({"pins": "0"}, "pins=0"),
+    ({"pins": "11"}, "pins=11"),
+    ({"pins": "five"}, "pins=five"),
+    ({"noise": "-0.1"}, "noise=-0.1"),
+    ({"speed": "nan"}, "speed=nan"),
+    ({"spots": "1,1,2"}, "spots=1,1,2"),
+    ({"spots": "0,3"}, "spots=0,3"),
+    ({"spots": "1,x"}, "spots=1,x"),
+    ({"spots": "1,2", "pins": "3"}, "pins=3"),
+    ({"timestep": "0.5"}, "timestep=0.5"),
+    ({"colour": "red"}, "colour"),
+])
+def test_bad_options_are_one_line_user_errors(options, field):
+    with pytest.raises(UserError) as err:
+        BowlingSim(**options)
+    msg = str(err.value)
+    assert field in msg and "\n" not in msg
+
+
+def test_bad_actions_are_rejected(rack):
+    rack.reset(0)
+    with pytest.raises(ValueError, match="names no pin"):
+        rack.step(Atom("throwAtCenter", ("p11",)))
+    with pytest.raises(ValueError, match="unknown primitive"):
+        rack.step(Atom("closeHandAround", ("p1",)))
+
+
+def test_render_writes_a_png(tmp_path, rack):
+    rack.reset(0)
+    out = tmp_path / "lane.png"
+    rack.render(out, 160, 120)
+    data = out.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    import matplotlib.image as mpimg
+    img = mpimg.imread(out)
+    assert img.shape[:2] == (120, 160)
+    assert img[..., :3].std() > 0.05        # not a blank frame: lane, pins and walls differ
