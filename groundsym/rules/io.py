@@ -1,0 +1,200 @@
+"""Rule files: ``rules.json`` (``groundsym.rules/1``, read and written) and the readable ``rules.txt``.
+
+The JSON file is the model; the text file is for people (one block per rule: action, context,
+outcomes with probabilities, noise). Reading validates everything a planner relies on (atoms
+parse, variables are bound, probabilities are in [0, 1] and sum to 1) and names the file and the
+field in its one-line error.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+from ..errors import UserError
+from ..fileio import atomic_write_json, atomic_write_text, read_json
+from ..logic import Atom, Literal, is_variable, parse_atom, parse_literal
+from .model import DefaultRule, Outcome, Rule, RuleSet
+
+SCHEMA = "groundsym.rules/1"
+SUM_TOL = 1e-6
+
+
+def rules_to_doc(rs: RuleSet, *, predicates: Mapping[str, int] | None = None,
+                 primitives: Mapping[str, int] | None = None, covers: Mapping[int, int] | None = None,
+                 options: Mapping[str, Any] | None = None, provenance: Mapping[str, Any] | None = None
+                 ) -> dict[str, Any]:
+    """The JSON document of a rule set; ``covers[i]`` = training transitions rule ``i`` covers."""
+    doc: dict[str, Any] = {"schema": SCHEMA}
+    if provenance:
+        doc["provenance"] = dict(provenance)
+    if predicates is not None:
+        doc["predicates"] = dict(sorted(predicates.items()))
+    if primitives is not None:
+        doc["primitives"] = dict(sorted(primitives.items()))
+    doc["p_min"] = rs.p_min
+    doc["p_min_default"] = rs.p_min_default
+    doc["injective"] = rs.injective
+    if options:
+        doc["options"] = dict(options)
+    doc["defaults"] = [{"action": a, "p_noise": d.p_noise} for a, d in rs.defaults]
+    rules = []
+    for i, r in enumerate(rs.rules):
+        rd: dict[str, Any] = {"action": str(r.action), "context": [str(l) for l in r.context],
+                              "outcomes": [{"probability": p, "changes": [str(c) for c in o.changes]}
+                                           for o, p in zip(r.outcomes, r.probs)],
+                              "noise": r.noise, "noise_changes": r.noise_changes}
+        if covers is not None:
+            rd["covers"] = int(covers.get(i, 0))
+        rules.append(rd)
+    doc["rules"] = rules
+    return doc
+
+
+def write_rules(path: str | Path, rs: RuleSet, **kw: Any) -> None:
+    atomic_write_json(path, rules_to_doc(rs, **kw))
+
+
+class _Fields:
+    """Field-naming validation for one rules document."""
+
+    def __init__(self, path: str | Path):
+        self.path = path
+
+    def fail(self, field: str, msg: str) -> UserError:
+        return UserError(f"{self.path}: {field}: {msg}")
+
+    def get(self, doc: Any, key: str, field: str, kind: type | tuple[type, ...], default: Any = ...) -> Any:
+        where = f"{field}.{key}" if field else key
+        if not isinstance(doc, dict):
+            raise self.fail(field or "document", "expected a JSON object")
+        if key not in doc:
+            if default is not ...:
+                return default
+            raise self.fail(where, "missing")
+        v = doc[key]
+        if isinstance(v, bool) and kind is not bool or not isinstance(v, kind):
+            raise self.fail(where, f"expected {getattr(kind, '__name__', kind)}, got {type(v).__name__}")
+        return v
+
+    def prob(self, v: Any, field: str, lo: float = 0.0) -> float:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= 1:
+            raise self.fail(field, f"expected a probability in [{lo:g}, 1], got {v!r}")
+        return float(v)
+
+    def literal(self, text: Any, field: str, arities: Mapping[str, int] | None) -> Literal:
+        if not isinstance(text, str):
+            raise self.fail(field, f"expected a literal string, got {type(text).__name__}")
+        try:
+            lit = parse_literal(text)
+        except ValueError as exc:
+            raise self.fail(field, str(exc)) from None
+        self.check_arity(lit.atom, field, arities)
+        return lit
+
+    def check_arity(self, atom: Atom, field: str, arities: Mapping[str, int] | None) -> None:
+        if arities is None:
+            return
+        if atom.predicate not in arities:
+            raise self.fail(field, f"unknown name {atom.predicate!r} (declared: {', '.join(sorted(arities))})")
+        if arities[atom.predicate] != atom.arity:
+            raise self.fail(field, f"{atom.predicate} takes {arities[atom.predicate]} arguments, got {atom.arity}")
+
+
+def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[str, Any]]:
+    """Parse and validate a rules document; returns the rule set and the rest (meta) of the file."""
+    f = _Fields(path)
+    if not isinstance(doc, dict):
+        raise f.fail("document", "expected a JSON object")
+    schema = f.get(doc, "schema", "", str)
+    if schema != SCHEMA:
+        raise f.fail("schema", f"expected {SCHEMA!r}, got {schema!r}")
+    preds = _arities(f, doc, "predicates")
+    prims = _arities(f, doc, "primitives")
+    p_min = f.prob(f.get(doc, "p_min", "", (int, float)), "p_min")
+    p_min_def = f.prob(f.get(doc, "p_min_default", "", (int, float)), "p_min_default")
+    injective = f.get(doc, "injective", "", bool, True)
+    defaults = []
+    for i, d in enumerate(f.get(doc, "defaults", "", list)):
+        name = f.get(d, "action", f"defaults[{i}]", str)
+        defaults.append((name, DefaultRule(f.prob(f.get(d, "p_noise", f"defaults[{i}]", (int, float)),
+                                                  f"defaults[{i}].p_noise"))))
+    rules = tuple(_rule(f, rd, f"rules[{i}]", preds, prims) for i, rd in enumerate(f.get(doc, "rules", "", list)))
+    meta = {k: v for k, v in doc.items() if k not in ("schema", "rules", "defaults")}
+    meta["covers"] = [rd.get("covers") for rd in doc["rules"]]
+    return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective), meta
+
+
+def _arities(f: _Fields, doc: dict, key: str) -> dict[str, int] | None:
+    d = f.get(doc, key, "", dict, None)
+    if d is None:
+        return None
+    for k, v in d.items():
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise f.fail(f"{key}.{k}", "expected a non-negative arity")
+    return dict(d)
+
+
+def _rule(f: _Fields, rd: Any, field: str, preds: Mapping[str, int] | None,
+          prims: Mapping[str, int] | None) -> Rule:
+    text = f.get(rd, "action", field, str)
+    try:
+        action = parse_atom(text)
+    except ValueError as exc:
+        raise f.fail(f"{field}.action", str(exc)) from None
+    f.check_arity(action, f"{field}.action", prims)
+    if not all(map(is_variable, action.args)) or len(set(action.args)) != len(action.args):
+        raise f.fail(f"{field}.action", f"expected distinct ?variables as arguments, got {text}")
+    context = tuple(f.literal(t, f"{field}.context[{k}]", preds)
+                    for k, t in enumerate(f.get(rd, "context", field, list)))
+    variables = set(action.args) | {a for l in context for a in l.atom.args}
+    outs, probs = [], []
+    for k, od in enumerate(f.get(rd, "outcomes", field, list)):
+        of = f"{field}.outcomes[{k}]"
+        probs.append(f.prob(f.get(od, "probability", of, (int, float)), f"{of}.probability"))
+        changes = tuple(f.literal(t, f"{of}.changes[{j}]", preds) for j, t in enumerate(f.get(od, "changes", of, list)))
+        for j, c in enumerate(changes):
+            unbound = [a for a in c.atom.args if a not in variables]
+            if unbound:
+                raise f.fail(f"{of}.changes[{j}]", f"{unbound[0]} is neither an action argument nor in the context")
+        outs.append(Outcome(changes))
+    noise = f.prob(f.get(rd, "noise", field, (int, float)), f"{field}.noise")
+    total = sum(probs) + noise
+    if abs(total - 1.0) > SUM_TOL:
+        raise f.fail(f"{field}.outcomes", f"probabilities and noise sum to {total:.6g}, not 1")
+    nc = f.get(rd, "noise_changes", field, (int, float), 0.0)
+    return Rule(action, context, tuple(outs), tuple(probs), noise, float(nc))
+
+
+def read_rules(path: str | Path) -> tuple[RuleSet, dict[str, Any]]:
+    return doc_to_rules(read_json(path), path)
+
+
+def _fmt_p(p: float) -> str:
+    return f"{p:.3f}" if p >= 1e-3 else f"{p:.1e}"
+
+
+def rules_to_text(rs: RuleSet, covers: Mapping[int, int] | None = None, title: str = "") -> str:
+    """Readable rules: one block per rule (action, context, outcomes with probabilities, noise)."""
+    lines = [f"# {title or 'NID rules'}: {len(rs.rules)} rules; p_min {rs.p_min:g}, "
+             f"default rule p_min {rs.p_min_default:g}", ""]
+    for i, r in enumerate(rs.rules):
+        cov = f"    ({covers.get(i, 0)} training transitions)" if covers is not None else ""
+        lines.append(f"rule {i + 1}: {r.action}{cov}")
+        lines.append(f"  context:  {' '.join(str(l) for l in r.context) if r.context else '(always)'}")
+        if r.deictic:
+            lines.append(f"  references: {', '.join(r.deictic)} (each must match exactly one object)")
+        lines.append("  outcomes:")
+        order = sorted(range(len(r.outcomes)), key=lambda k: -r.probs[k])
+        for k in order:
+            lines.append(f"    {_fmt_p(r.probs[k]):>8}  {r.outcomes[k]}")
+        lines.append(f"    {_fmt_p(r.noise):>8}  noise (mean {r.noise_changes:.2f} atoms changed when it happened)")
+        lines.append("")
+    for name, d in rs.defaults:
+        lines.append(f"default rule for {name}: no change {_fmt_p(d.p_nochange)}, noise {_fmt_p(d.p_noise)}")
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def write_rules_text(path: str | Path, rs: RuleSet, covers: Mapping[int, int] | None = None, title: str = "") -> None:
+    atomic_write_text(path, rules_to_text(rs, covers, title))
