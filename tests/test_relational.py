@@ -1,0 +1,137 @@
+"""The fast exact distances agree with the naive enumeration of all permutations (the reference)."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from groundsym.logic import Atom
+from groundsym.relational import (INF, Encoded, encode_state, exact_state_distance, naive_scene_distance,
+                                  naive_state_distance, nearest, permutation_cost, scene_distance,
+                                  state_distance)
+from groundsym.world import Scene
+
+
+def _random_encoded(rng, m, k, l, density, lock_at=None, label=0):
+    u = (rng.random((m, k)) < density).astype(np.uint8)
+    b = (rng.random((m, m, l)) < density).astype(np.uint8)
+    b[np.arange(m), np.arange(m)] = 0
+    lock = np.zeros(m, dtype=np.int64)
+    if lock_at is not None:
+        lock[lock_at] = 1
+    return Encoded(u, b, (rng.random(1) < 0.5).astype(np.uint8), lock, label)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_exact_symbolic_distance_matches_enumeration(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        m, k, l = int(rng.integers(1, 7)), int(rng.integers(0, 3)), int(rng.integers(1, 3))
+        density = float(rng.uniform(0.05, 0.5))
+        locked = rng.random() < 0.5
+        a = _random_encoded(rng, m, k, l, density, int(rng.integers(m)) if locked else None)
+        b = _random_encoded(rng, m, k, l, density, int(rng.integers(m)) if locked else None)
+        fast, perm = exact_state_distance(a, b)
+        ref, _ = naive_state_distance(a, b)
+        assert fast == ref
+        assert permutation_cost(a, b, perm) == fast  # the returned permutation attains it
+        assert perm[a.lock != 0].tolist() == np.flatnonzero(b.lock).tolist() or not locked
+
+
+def test_threshold_search_only_proves_a_lower_bound():
+    rng = np.random.default_rng(7)
+    a = _random_encoded(rng, 6, 1, 1, 0.4)
+    b = _random_encoded(rng, 6, 1, 1, 0.4)
+    exact, _ = exact_state_distance(a, b)
+    bound, perm = exact_state_distance(a, b, threshold=exact)
+    assert perm is None and bound >= exact - 1e-9 or perm is not None and bound == exact
+    d, perm = exact_state_distance(a, b, threshold=exact + 0.5)
+    assert d == exact and perm is not None
+
+
+def test_different_primitives_never_match():
+    rng = np.random.default_rng(1)
+    a = _random_encoded(rng, 4, 1, 1, 0.3, 0, label=0)
+    b = _random_encoded(rng, 4, 1, 1, 0.3, 0, label=1)
+    assert exact_state_distance(a, b)[0] == INF
+
+
+def test_state_distance_on_atoms_hand_computed():
+    on = lambda x, y: Atom("on", (x, y))  # noqa: E731
+    s1 = frozenset({on("a", "b"), Atom("inhand", ("c",))})
+    s2 = frozenset({on("y", "z"), Atom("inhand", ("x",))})
+    d, mapping = state_distance(s1, ("a", "b", "c"), s2, ("x", "y", "z"))
+    assert d == 0 and mapping == {"a": "y", "b": "z", "c": "x"}
+    # constrained: grasping a must map onto grasping z; then the best has 4 mismatched atoms
+    d, mapping = state_distance(s1, ("a", "b", "c"), s2, ("x", "y", "z"),
+                                Atom("grab", ("a",)), Atom("grab", ("z",)))
+    assert mapping["a"] == "z"
+    ref = min(_atom_hamming(s1, s2, dict(zip("abc", p))) for p in itertools.permutations("xyz") if p[0] == "z")
+    assert d == ref
+    assert state_distance(s1, "abc", s2, "xyz", Atom("grab", ("a",)), Atom("drop", ("z",)))[0] == INF
+
+
+def _atom_hamming(s1, s2, mapping):
+    return len({a.substitute(mapping) for a in s1} ^ set(s2))
+
+
+def test_state_distance_pads_fewer_objects():
+    s1 = frozenset({Atom("on", ("a", "b"))})
+    s2 = frozenset({Atom("on", ("x", "y")), Atom("on", ("y", "z"))})
+    d, mapping = state_distance(s1, ("a", "b"), s2, ("x", "y", "z"))
+    assert d == 1 and set(mapping) == {"a", "b"}
+
+
+def test_scene_distance_matches_enumeration_with_pins():
+    rng = np.random.default_rng(3)
+    objs = tuple(f"o{i}" for i in range(6))
+    for _ in range(20):
+        a = Scene(objs, rng.normal(size=(6, 4)))
+        b = Scene(objs, rng.normal(size=(6, 4)))
+        act_a, act_b = Atom("grab", (objs[rng.integers(6)],)), Atom("grab", (objs[rng.integers(6)],))
+        for pair in ((None, None), (act_a, act_b)):
+            d, m = scene_distance(a, b, *pair)
+            ref, _ = naive_scene_distance(a, b, *pair)
+            assert d == pytest.approx(ref, abs=1e-12)
+            perm = [objs.index(m[o]) for o in objs]
+            assert sum(((a.features[i] - b.features[j]) ** 2).sum() for i, j in enumerate(perm)) == pytest.approx(d)
+            if pair[0] is not None:
+                assert m[act_a.args[0]] == act_b.args[0]
+
+
+def test_nearest_returns_all_ties_and_is_exact():
+    rng = np.random.default_rng(5)
+    objs = ("a", "b", "c", "d", "e")
+    preds = {"u": 1, "r": 2}
+
+    def random_state():
+        atoms = {Atom("u", (o,)) for o in objs if rng.random() < 0.3}
+        atoms |= {Atom("r", (x, y)) for x in objs for y in objs if x != y and rng.random() < 0.15}
+        return frozenset(atoms)
+
+    for _ in range(5):
+        query = random_state()
+        cands = [(random_state(), objs) for _ in range(25)]
+        cands.append((frozenset(a.substitute(dict(zip(objs, "edcba"))) for a in query), objs))  # an isomorph
+        acts = [Atom("grab", (objs[rng.integers(5)],)) for _ in cands]
+        qa = Atom("grab", ("a",))
+        acts[-1] = Atom("grab", ("e",))
+        res = nearest(query, objs, cands, qa, acts, preds)
+        ref = [state_distance(query, objs, s, o, qa, acts[k], preds)[0] for k, (s, o) in enumerate(cands)]
+        assert res.distance == 0 == min(ref)
+        assert list(res.indices) == [k for k, d in enumerate(ref) if d == 0]
+        res = nearest(query, objs, cands[:-1], qa, acts[:-1], preds)
+        assert res.distance == min(ref[:-1])
+        assert list(res.indices) == [k for k, d in enumerate(ref[:-1]) if d == res.distance]
+        for k, m in zip(res.indices, res.mappings):
+            assert m["a"] == acts[k].args[0]
+
+
+def test_nearest_on_scenes():
+    rng = np.random.default_rng(2)
+    objs = ("a", "b", "c")
+    query = Scene(objs, rng.normal(size=(3, 2)))
+    cands = [Scene(objs, rng.normal(size=(3, 2))) for _ in range(10)]
+    res = nearest(query, None, cands)
+    ref = [scene_distance(query, c)[0] for c in cands]
+    assert res.indices == (int(np.argmin(ref)),) and res.distance == pytest.approx(min(ref))
