@@ -20,6 +20,7 @@ from .errors import UserError
 from .fileio import atomic_write_json, dumps_json
 from .provenance import provenance
 from .reward import RewardModel, fit_reward, read_reward, write_reward
+from .rules.evaluate import score_ruleset
 from .rules.io import read_rules, write_rules, write_rules_text
 from .rules.learner import ALPHA, LearnOptions, examples_from_dataset, learn_rules
 from .rules.model import P_MIN, RuleSet
@@ -27,18 +28,6 @@ from .symbolic_traces import SymbolicDataset, dataset_to_doc, read_symbolic_trac
 
 RULES, RULES_TXT, REWARD, SYMBOLIC = "rules.json", "rules.txt", "reward.json", "symbolic-traces.json"
 SYMBOLS, TRACES = "symbols.json", "traces.json"
-
-
-def rule_coverage(rs: RuleSet, ds: SymbolicDataset) -> dict[int, int]:
-    """How many transitions of ``ds`` each rule (by index in ``rs.rules``) covers."""
-    index = {id(r): i for i, r in enumerate(rs.rules)}
-    counts = {i: 0 for i in range(len(rs.rules))}
-    for tr in ds.traces:
-        for s, a, _ in tr.transitions():
-            r, _b = rs.covering(s, a, tr.objects)
-            if r is not None:
-                counts[index[id(r)]] += 1
-    return counts
 
 
 def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv: list[str],
@@ -57,7 +46,7 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     opts = LearnOptions(alpha=ALPHA if alpha is None else alpha, p_min=P_MIN if p_min is None else p_min)
     prov = provenance(argv, seed=seed, data_sha256=data_sha)
     rs, report = learn_rules(examples_from_dataset(sds), sds.predicates, opts, seed=seed, progress=progress)
-    covers = rule_coverage(rs, sds)
+    covers = score_ruleset(rs, sds).covers
     reward = fit_reward(sds, seed=seed)
     options = {"alpha": opts.alpha, "p_min": opts.p_min, "p_min_default": opts.p_min_default,
                "default_clip": list(opts.default_clip), "score": report.score,
