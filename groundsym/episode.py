@@ -1,0 +1,201 @@
+"""The closed loop: an environment and a planner, step by step, recorded as an episode.
+
+An environment is either a simulation (continuous scenes, abstracted by the model's learned
+symbols when there are any) or a symbolic world (a PPDDL problem run by the PPDDL simulator, or
+a hand-written rule set). Both give the planner the same :class:`~groundsym.planner.Observation`,
+so the same planner runs on robot data and on reference domains. The episode records every
+step's abstract state, chosen primitive, the planner's expected value and the reward, and the
+discounted episode value ``V = sum_{t=1..T} gamma^(t-1) r_t`` the paper reports (``r_t`` is the
+reward of the scene after the t-th primitive).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Protocol, Sequence
+
+import numpy as np
+
+from .logic import Atom, format_state
+from .planner import Decision, Goal, Observation
+
+EPISODE_SCHEMA = "groundsym.episode/1"
+
+
+class Environment(Protocol):
+    """What the loop needs from a world: start, the current observation, run a primitive."""
+
+    gamma: float
+
+    def reset(self, seed: int, steps: int = 1) -> Observation: ...
+
+    def step(self, action: Atom, t: int, steps_left: int) -> tuple[Observation, float]: ...
+
+    def done(self) -> bool: ...
+
+
+@dataclass(frozen=True)
+class Step:
+    """One primitive: what the planner saw and chose, and the reward of the scene it led to."""
+
+    t: int
+    state: tuple[str, ...] | None
+    action: str
+    expected_value: float
+    reward: float
+    info: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Episode:
+    """A whole run of the loop; ``value`` is the discounted sum of the step rewards."""
+
+    planner: str
+    seed: int
+    gamma: float
+    start_reward: float
+    steps: tuple[Step, ...]
+    final_state: tuple[str, ...] | None
+    success: bool | None = None
+
+    @property
+    def value(self) -> float:
+        return float(sum(self.gamma ** t * s.reward for t, s in enumerate(self.steps)))
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"schema": EPISODE_SCHEMA, "planner": self.planner, "seed": self.seed, "gamma": self.gamma,
+                "value": self.value, "success": self.success, "start_reward": self.start_reward,
+                "steps": [{"t": s.t, "state": list(s.state) if s.state is not None else None,
+                           "action": s.action, "expected_value": _finite(s.expected_value),
+                           "reward": s.reward, "info": s.info} for s in self.steps],
+                "final_state": list(self.final_state) if self.final_state is not None else None}
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _state_text(state: frozenset | None) -> tuple[str, ...] | None:
+    return None if state is None else tuple(format_state(state))
+
+
+# ----------------------------------------------------------------------------- environments
+
+class SimEnv:
+    """A simulation, its scenes abstracted with ``symbols`` (if given) for symbolic planners."""
+
+    def __init__(self, sim: Any, symbols: Any = None, render_dir: str | Path | None = None):
+        self.sim, self.symbols = sim, symbols
+        self.gamma = float(sim.gamma)
+        self.render_dir = Path(render_dir) if render_dir else None
+        self.frame = 0
+
+    def _observe(self, scene: Any, t: int, steps_left: int) -> Observation:
+        state = self.symbols.abstract_scene(scene) if self.symbols is not None else None
+        if self.render_dir is not None:
+            self.render_dir.mkdir(parents=True, exist_ok=True)
+            self.sim.render(self.render_dir / f"frame-{self.frame:03d}.png")
+            self.frame += 1
+        return Observation(tuple(scene.objects), tuple(self.sim.actions()), state, scene, t, steps_left)
+
+    def reset(self, seed: int, steps: int = 1) -> Observation:
+        self.frame = 0
+        return self._observe(self.sim.reset(seed), 0, steps)
+
+    def step(self, action: Atom, t: int, steps_left: int) -> tuple[Observation, float]:
+        scene = self.sim.step(action)
+        return self._observe(scene, t, steps_left), float(scene.reward)
+
+    def start_reward(self) -> float:
+        return float(self.sim.scene().reward)
+
+    def done(self) -> bool:
+        return False
+
+
+class SymbolicEnv:
+    """A symbolic world: a successor sampler over states, an optional goal, a reward per step.
+
+    ``successor(state, action, rng)`` draws the next state; ``applicable(state)`` lists the
+    actions that may be tried; the reward of a step is ``goal.reward`` when the goal holds in the
+    state reached, plus ``action_reward(state, action)`` (PPDDL reward effects). A reached goal
+    ends the episode.
+    """
+
+    def __init__(self, objects: Sequence[str], start: frozenset, actions: Callable[[frozenset], Sequence[Atom]],
+                 successor: Callable[[frozenset, Atom, np.random.Generator], frozenset],
+                 goal: Goal | None = None, gamma: float = 1.0,
+                 action_reward: Callable[[frozenset, Atom], float] | None = None):
+        self.objects, self.start = tuple(objects), frozenset(start)
+        self.actions, self.successor, self.goal = actions, successor, goal
+        self.gamma = gamma
+        self.action_reward = action_reward
+        self.state = self.start
+        self.rng = np.random.default_rng(0)
+
+    def _observe(self, t: int, steps_left: int) -> Observation:
+        return Observation(self.objects, tuple(self.actions(self.state)), self.state, None, t, steps_left)
+
+    def reset(self, seed: int, steps: int = 1) -> Observation:
+        self.state = self.start
+        self.rng = np.random.default_rng(seed)
+        return self._observe(0, steps)
+
+    def reward(self, state: frozenset) -> float:
+        return float(self.goal.reward) if self.goal is not None and self.goal.holds(state) else 0.0
+
+    def step(self, action: Atom, t: int, steps_left: int) -> tuple[Observation, float]:
+        extra = self.action_reward(self.state, action) if self.action_reward else 0.0
+        self.state = frozenset(self.successor(self.state, action, self.rng))
+        return self._observe(t, steps_left), self.reward(self.state) + extra
+
+    def start_reward(self) -> float:
+        return self.reward(self.start)
+
+    def done(self) -> bool:
+        return self.goal is not None and self.goal.holds(self.state)
+
+    @property
+    def success(self) -> bool | None:
+        return None if self.goal is None else self.goal.holds(self.state)
+
+
+# ----------------------------------------------------------------------------- the loop
+
+def run_episode(env: Any, planner: Any, steps: int, seed: int, name: str = "",
+                on_step: Callable[[Step], None] | None = None) -> Episode:
+    """Run ``steps`` primitives (fewer if a goal is reached) and record everything."""
+    obs = env.reset(seed, steps)
+    start_reward = env.start_reward()
+    record: list[Step] = []
+    for t in range(steps):
+        if env.done():
+            break
+        decision: Decision = planner.choose(obs)
+        nxt, reward = env.step(decision.action, t + 1, steps - t - 1)
+        planner.observe(decision.action, nxt)
+        step = Step(t, _state_text(obs.state), str(decision.action), float(decision.expected_value),
+                    float(reward), _plain(decision.info))
+        record.append(step)
+        if on_step is not None:
+            on_step(step)
+        obs = nxt
+    success = getattr(env, "success", None)
+    return Episode(name or getattr(planner, "name", "?"), seed, env.gamma, start_reward, tuple(record),
+                   _state_text(obs.state), success)
+
+
+def _plain(info: Any) -> dict:
+    """Planner info made JSON-safe (numbers, strings, lists)."""
+    out = {}
+    for k, v in dict(info).items():
+        if isinstance(v, (str, int, bool)) or v is None:
+            out[k] = v
+        elif isinstance(v, float):
+            out[k] = v if np.isfinite(v) else None
+        elif isinstance(v, (list, tuple)):
+            out[k] = [str(x) if not isinstance(x, (int, float, str)) else x for x in v]
+        else:
+            out[k] = str(v)
+    return out
