@@ -18,6 +18,7 @@ from typing import Any, Callable, ClassVar, Mapping, Protocol, runtime_checkable
 
 from .errors import UserError
 from .logic import Atom, Literal
+from .sim import SimOption as PlannerOption  # same shape: name, kind, default, doc
 from .world import Scene
 
 # What a planner may need from the model; the keys of PlanningModel that must not be None.
@@ -54,6 +55,7 @@ class PlanningModel:
     """
 
     primitives: Mapping[str, int]
+    predicates: Mapping[str, int] | None = None
     symbols: Any = None
     rules: Any = None
     reward: Any = None
@@ -98,16 +100,6 @@ class Decision:
 
     def __str__(self) -> str:
         return f"{self.action} (expected value {self.expected_value:.4g})"
-
-
-@dataclass(frozen=True)
-class PlannerOption:
-    """One ``--planner-opt key=value`` option: its type, default and meaning."""
-
-    name: str
-    kind: Callable[[str], Any]
-    default: Any
-    doc: str
 
 
 @runtime_checkable

@@ -229,6 +229,38 @@ class ModelReward(RewardFn):
         return np.array([float(self.model.expected(self.g.marginals(row), self.g.objects)) for row in B])
 
 
+@dataclass(frozen=True, eq=False)
+class ArrayReward(RewardFn):
+    """A model with batched ``expected_arrays(arrays, n_objects)`` (groundsym.reward.RewardModel).
+
+    ``columns[p]`` maps every cell of predicate ``p``'s M x ... x M array to a belief column; cells
+    outside the grounding (e.g. ``on(x, x)``) read an appended column of zeros.
+    """
+
+    model: Any
+    columns: Mapping[str, np.ndarray]
+    n_objects: int
+
+    def __call__(self, B: np.ndarray) -> np.ndarray:
+        ext = np.hstack([B, np.zeros((B.shape[0], 1))])
+        m, N = self.n_objects, B.shape[0]
+        arrays = {p: ext[:, idx].reshape((N,) + (m,) * idx.ndim) for p, idx in self.columns.items()}
+        return np.asarray(self.model.expected_arrays(arrays, m), dtype=float)
+
+
+def array_reward(model: Any, g: Grounding) -> ArrayReward:
+    m, zero = len(g.objects), g.n_vars + 1
+    columns = {}
+    for p, k in dict(model.predicates).items():
+        idx = np.full((m,) * k, zero, dtype=np.int64)
+        for cell in np.ndindex(*idx.shape):
+            i = g.index.get(Atom(p, tuple(g.objects[c] for c in cell)))
+            if i is not None:
+                idx[cell] = i
+        columns[p] = idx
+    return ArrayReward(model, columns, m)
+
+
 def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
     idx, pos = [], []
     for lit in goal.literals:
@@ -243,12 +275,14 @@ def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
 
 
 def model_reward(model: Any, g: Grounding, rng: np.random.Generator) -> RewardFn:
-    """Linear weights when the model's expectation is linear in the marginals, else row by row.
+    """Batched arrays for a groundsym RewardModel; for any other model with ``expected``: linear weights when the model's expectation is linear in the marginals, else row by row.
 
     Probing ``expected`` at the empty belief and at each unit vector gives the weights a linear
     model must have; three random beliefs then confirm linearity (a tree or product model fails
     and is used exactly, row by row).
     """
+    if hasattr(model, "expected_arrays") and hasattr(model, "predicates"):
+        return array_reward(model, g)
     full = ModelReward(model, g)
     V = g.n_vars
     probes = np.zeros((V + 1, V + 1))
@@ -404,10 +438,8 @@ class PradaPlanner:
         self._cores: dict[tuple[str, ...], PradaCore] = {}
 
     def _predicates(self, state: frozenset) -> dict[str, int]:
-        preds: dict[str, int] = {}
-        symbols = self.model.symbols
-        for s in getattr(symbols, "symbols", ()) or ():
-            preds[s.name] = s.arity
+        preds: dict[str, int] = dict(self.model.predicates or {})
+        preds.update(dict(getattr(self.model.reward, "predicates", ()) or ()))
         if self.model.goal is not None:
             for lit in self.model.goal.literals:
                 preds.setdefault(lit.atom.predicate, lit.atom.arity)

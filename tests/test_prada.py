@@ -199,3 +199,20 @@ def test_planner_uses_a_learned_reward_model():
     planner = PradaPlanner(PlanningModel(PRIMS, rules=rules, reward=Product()), {}, seed=0)
     d = planner.choose(env.reset(0))
     assert d.info["plan"] == ["(pickup b)", "(puton c)", "(pickup a)", "(puton b)"]
+
+
+def test_batched_reward_model_matches_its_own_expectation():
+    """groundsym's relational reward model, read through PRADA's belief columns, equals its own
+    ``expected`` on random marginals (pair and chain count features included)."""
+    from groundsym.reward import RewardModel, candidate_features
+
+    rng = np.random.default_rng(2)
+    preds = {"on": 2, "inhand": 1}
+    feats = tuple(candidate_features(preds))
+    model = RewardModel(feats, tuple(rng.normal(size=len(feats))), 0.3, tuple(sorted(preds.items())))
+    objects = ("a", "b", "c", "d")
+    g = ground_rules(RuleSet((PICK,)), objects, preds)
+    fn = model_reward(model, g, rng)
+    B = np.hstack([rng.random((4, g.n_vars)), np.ones((4, 1))])
+    want = [model.expected(g.marginals(row), objects) for row in B]
+    np.testing.assert_allclose(fn(B), want, rtol=1e-10)
