@@ -62,7 +62,7 @@ def _pin_profile() -> tuple[PinPart, ...]:
     s = SCALE
     return (
         PinPart(pb.GEOM_CYLINDER, 0.0258 * s, 0.046 * s, 0.023 * s),   # foot
-        PinPart(pb.GEOM_CAPSULE, 0.0605 * s, 0.061 * s, 0.114 * s),    # belly, widest 11.4 cm up
+        PinPart(pb.GEOM_CAPSULE, 0.0605 * s, 0.030 * s, 0.114 * s),    # belly, widest 11.4 cm up
         PinPart(pb.GEOM_CYLINDER, 0.0230 * s, 0.122 * s, 0.252 * s),   # neck
         PinPart(pb.GEOM_SPHERE, 0.0320 * s, 0.0, 0.349 * s),           # head, top at 38.1 cm
     )
