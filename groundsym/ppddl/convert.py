@@ -1,0 +1,350 @@
+"""NID rules <-> PPDDL (ALGORITHMS.md C.2).
+
+Export (:func:`rules_to_domain`): one action ``<primitive>_r<k>`` per non-default rule. Its
+parameters are the action's variables followed by the deictic references, and its precondition
+states exactly when the NID rule set picks that rule:
+
+* the context;
+* injective bindings, ``(not (= ?a ?b))`` for every pair of variables (the rules' default);
+* the deictic binding is unique: ``(forall (?z..) (or (not ctx[?z/?y]) (and (= ?z ?y)..) <?z not injective>))``;
+* no other rule of the same primitive covers: ``(not <covers_j>)``, where ``covers_j`` is the
+  same construction for rule ``j`` under ``exists``. (The set semantics: two covering rules mean
+  the default rule, which is not exported; an action with no applicable PPDDL action changes
+  nothing.)
+
+The effect is ``(probabilistic p1 o1 .. pn on)``; the noise mass is left unassigned ("no change",
+the default) or, with ``noise="pessimistic"``, is an outcome ``(noise-happened)`` that every
+precondition forbids, so a planner avoids noisy rules.
+
+Import (:func:`domain_to_rules`) reads back the conjunctive subset: preconditions that are
+conjunctions of literals (plus the injectivity, uniqueness and exclusion conjuncts above, which
+are implied by the rule-set semantics), effects that are literals, ``and`` and at most one
+``probabilistic`` over conjunctions of literals. Mass left unassigned is the noise outcome;
+write ``p (and)`` for a no-change outcome. Reward effects are dropped (rewards are modelled
+apart). So export -> parse -> the same rules, and a hand-written reference domain gives PRADA
+its true rules.
+"""
+
+from __future__ import annotations
+
+import re
+from fractions import Fraction
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import UserError
+from ..logic import Atom, Literal
+from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
+from .ast import (NO_EFFECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
+                  Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
+
+NOISE_PREDICATE = "noise-happened"
+NOISE_MODES = ("no-change", "pessimistic")
+_RULE_NAME = re.compile(r"^(.+)_r(\d+)$")
+
+
+# ------------------------------------------------------------------------------ requirements
+def requirements(domain: Domain) -> tuple[str, ...]:
+    """Exactly the PDDL requirement flags the domain's actions use."""
+    found: set[str] = set()
+    for t in domain.types:
+        found.add(":typing")
+    for p in (*domain.predicates, *domain.constants):
+        if isinstance(p, Predicate) and any(x.type != "object" for x in p.params):
+            found.add(":typing")
+    for a in domain.actions:
+        if any(x.type != "object" for x in a.parameters):
+            found.add(":typing")
+        _formula_features(a.precondition, True, found)
+        _effect_features(a.effect, found)
+    return tuple(sorted(found))
+
+
+def _formula_features(f: Formula, positive: bool, out: set[str]) -> None:
+    if isinstance(f, Atom):
+        if f.predicate == "=":
+            out.add(":equality")
+        elif not positive:
+            out.add(":negative-preconditions")
+    elif isinstance(f, Not):
+        _formula_features(f.arg, not positive, out)
+    elif isinstance(f, (And, Or)):
+        if isinstance(f, Or) == positive and len(f.args) > 1:
+            out.add(":disjunctive-preconditions")
+        for g in f.args:
+            _formula_features(g, positive, out)
+    elif isinstance(f, Imply):
+        out.add(":disjunctive-preconditions")
+        _formula_features(f.left, not positive, out)
+        _formula_features(f.right, positive, out)
+    elif isinstance(f, (Forall, Exists)):
+        universal = isinstance(f, Forall) == positive
+        out.add(":universal-preconditions" if universal else ":existential-preconditions")
+        if any(p.type != "object" for p in f.params):
+            out.add(":typing")
+        _formula_features(f.body, positive, out)
+
+
+def _effect_features(e: Effect, out: set[str]) -> None:
+    if isinstance(e, AndEffect):
+        for x in e.effects:
+            _effect_features(x, out)
+    elif isinstance(e, Probabilistic):
+        out.add(":probabilistic-effects")
+        for _, x in e.branches:
+            _effect_features(x, out)
+    elif isinstance(e, When):
+        out.add(":conditional-effects")
+        _formula_features(e.condition, True, out)
+        _effect_features(e.effect, out)
+    elif isinstance(e, ForallEffect):
+        out.add(":conditional-effects")
+        _effect_features(e.effect, out)
+    elif isinstance(e, RewardEffect):
+        out.add(":rewards")
+
+
+# ------------------------------------------------------------------------------ export
+def probability(p: float) -> Fraction:
+    """The shortest decimal that reads back as the same float (so the round trip is exact)."""
+    return Fraction(np.format_float_positional(float(p), unique=True, trim="-"))
+
+
+def _fresh(base: str, taken: set[str], count: int) -> list[str]:
+    out = []
+    i = 1
+    while len(out) < count:
+        name = f"?{base}{i}"
+        if name not in taken:
+            out.append(name)
+            taken.add(name)
+        i += 1
+    return out
+
+
+def _lit(l: Literal) -> Formula:
+    return l.atom if l.positive else Not(l.atom)
+
+
+def _conj(items: Sequence[Formula]) -> Formula:
+    return items[0] if len(items) == 1 else And(tuple(items))
+
+
+def _distinct(a: Sequence[str], b: Sequence[str] | None = None) -> list[Formula]:
+    """``(not (= u v))`` for every pair within ``a`` (and between ``a`` and ``b``)."""
+    pairs = [(u, v) for i, u in enumerate(a) for v in a[i + 1:]] + [(u, v) for u in a for v in (b or ())]
+    return [Not(Atom("=", (u, v))) for u, v in pairs]
+
+
+def _unique(context: Sequence[Literal], action_vars: Sequence[str], deictic: Sequence[str], taken: set[str],
+            injective: bool) -> Formula | None:
+    """No other (injective) binding of the deictic variables satisfies the context."""
+    if not deictic:
+        return None
+    zs = _fresh("z", taken, len(deictic))
+    ren = dict(zip(deictic, zs))
+    restr = [_lit(l.substitute(ren)) for l in context if set(l.atom.args) & set(deictic)]
+    same = [Atom("=", (z, y)) for z, y in zip(zs, deictic)]
+    clash: list[Formula] = []
+    if injective:
+        clash = [Atom("=", (u, v)) for i, u in enumerate(zs) for v in zs[i + 1:]]
+        clash += [Atom("=", (z, x)) for z in zs for x in action_vars]
+    body = Or((Not(_conj(restr)), _conj(same), *clash))
+    return Forall(tuple(Typed(z) for z in zs), body)
+
+
+def _covers(rule: Rule, action_vars: Sequence[str], taken: set[str], injective: bool) -> Formula:
+    """A formula over ``action_vars`` that holds iff ``rule`` covers the action (A.3)."""
+    ren = dict(zip(rule.action.args, action_vars))
+    deictic = list(rule.deictic)
+    ws = _fresh("w", taken, len(deictic))
+    ren.update(zip(deictic, ws))
+    ctx = [l.substitute(ren) for l in rule.context]
+    parts: list[Formula] = [_lit(l) for l in ctx]
+    if not ws:
+        return And(tuple(parts))
+    if injective:
+        parts += _distinct(ws, action_vars)
+    u = _unique(ctx, action_vars, ws, taken, injective)
+    if u is not None:
+        parts.append(u)
+    return Exists(tuple(Typed(w) for w in ws), _conj(parts))
+
+
+def _effect(changes: Sequence[Literal]) -> Effect:
+    lits = tuple(sorted(changes))
+    return lits[0] if len(lits) == 1 else AndEffect(lits)
+
+
+def rule_to_action(rule: Rule, k: int, others: Sequence[Rule], noise: str = "no-change",
+                   injective: bool = True) -> Action:
+    """The PPDDL action of ``rule`` (the ``k``-th of its primitive); ``others``: its primitive's other rules."""
+    if noise not in NOISE_MODES:
+        raise UserError(f"--noise: expected one of {', '.join(NOISE_MODES)}, got {noise!r}")
+    variables = list(rule.variables)
+    action_vars = list(rule.action.args)
+    deictic = list(rule.deictic)
+    taken = set(variables)
+    pre: list[Formula] = [_lit(l) for l in rule.context]
+    if injective:
+        pre += _distinct(variables)
+    u = _unique(rule.context, action_vars, deictic, taken, injective)
+    if u is not None:
+        pre.append(u)
+    for other in others:
+        pre.append(Not(_covers(other, action_vars, set(taken), injective)))
+    if noise == "pessimistic":
+        pre.append(Not(Atom(NOISE_PREDICATE)))
+    probs = [probability(p) for p in rule.probs]
+    branches: list[tuple[Fraction, Effect]] = [(p, _effect(o.changes)) for p, o in zip(probs, rule.outcomes)]
+    excess = sum(probs, Fraction(0)) - 1
+    if excess > 0:  # float rounding in a learned rule: take it off the largest outcome
+        i = max(range(len(branches)), key=lambda j: branches[j][0])
+        branches[i] = (branches[i][0] - excess, branches[i][1])
+    rest = 1 - sum((p for p, _ in branches), Fraction(0))
+    if noise == "pessimistic" and rest > 0:
+        branches.append((rest, Literal(Atom(NOISE_PREDICATE))))
+    if len(branches) == 1 and branches[0][0] == 1:
+        effect = branches[0][1]
+    else:
+        effect = Probabilistic(tuple(branches)) if branches else NO_EFFECT
+    refs = ", ".join(deictic)
+    comment = (f"rule {k} of {rule.action}" + (f"; deictic {refs} are the unique objects the context names" if refs
+                                               else "") + f"; noise {float(rule.noise):.4g}"
+               + (" (no change)" if noise == "no-change" else " -> (noise-happened)"))
+    return Action(f"{rule.action.predicate}_r{k}", tuple(Typed(v) for v in variables), _conj(pre) if pre else TRUE,
+                  effect, comment)
+
+
+def rules_to_domain(rules: RuleSet, predicates: Mapping[str, int], name: str = "learned",
+                    noise: str = "no-change", comments: Mapping[str, str] | None = None,
+                    comment: str = "") -> Domain:
+    """A PPDDL domain whose actions are ``rules``' non-default rules (see the module docstring)."""
+    by_prim: dict[str, list[Rule]] = {}
+    for r in rules.rules:
+        by_prim.setdefault(r.action.predicate, []).append(r)
+    actions = []
+    for prim, rs in by_prim.items():
+        for k, r in enumerate(rs, 1):
+            actions.append(rule_to_action(r, k, [o for o in rs if o is not r], noise, rules.injective))
+    preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(n)), (comments or {}).get(p, ""))
+             for p, n in sorted(predicates.items())]
+    if noise == "pessimistic":
+        preds.append(Predicate(NOISE_PREDICATE, (), "a rule's noise outcome happened: a dead end"))
+    domain = Domain(name, (), (), (), tuple(preds), tuple(actions), comment)
+    return Domain(name, requirements(domain), (), (), domain.predicates, domain.actions, comment)
+
+
+# ------------------------------------------------------------------------------ import
+def _conjuncts(f: Formula) -> list[Formula]:
+    return [g for x in f.args for g in _conjuncts(x)] if isinstance(f, And) else [f]
+
+
+def _unique_refs(f: Formula, params: Sequence[str]) -> list[str]:
+    """The parameters a uniqueness conjunct ``(forall (?z..) (or .. (= ?z ?y) ..))`` pins down."""
+    if not isinstance(f, Forall) or not isinstance(f.body, Or):
+        return []
+    zs = {p.name for p in f.params}
+    for d in f.body.args:
+        eqs = _conjuncts(d)
+        if eqs and all(isinstance(e, Atom) and e.predicate == "=" and e.args[0] in zs and e.args[1] in params
+                       for e in eqs):
+            return [e.args[1] for e in eqs]  # type: ignore[union-attr]
+    return []
+
+
+def primitive_of(action: Action) -> tuple[str, int]:
+    """(primitive name, its arity) that a PPDDL action runs: ``puton_r2 ?x ?y`` with deictic ``?y``
+    runs ``puton`` on ``?x``; an ordinary action runs itself on all its parameters."""
+    names = [p.name for p in action.parameters]
+    m = _RULE_NAME.match(action.name)
+    if not m:
+        return action.name, len(names)
+    refs = {y for c in _conjuncts(action.precondition) for y in _unique_refs(c, names)}
+    n = next((i for i, v in enumerate(names) if v in refs), len(names))
+    return m.group(1), n
+
+
+def _is_noise_guard(f: Formula) -> bool:
+    return isinstance(f, Not) and f.arg == Atom(NOISE_PREDICATE)
+
+
+def _literals_of(e: Effect, where: str) -> list[Literal]:
+    if isinstance(e, Literal):
+        return [e]
+    if isinstance(e, AndEffect):
+        return [l for x in e.effects for l in _literals_of(x, where)]
+    if isinstance(e, RewardEffect):
+        return []
+    raise UserError(f"{where}: effect is outside the rule subset (only literals, and, one probabilistic)")
+
+
+def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
+    where = f"{domain_name}: action {action.name}"
+    prim, n = primitive_of(action)
+    names = [p.name for p in action.parameters]
+    context: list[Literal] = []
+    for c in _conjuncts(action.precondition):
+        if isinstance(c, Atom) and c.predicate != "=":
+            context.append(Literal(c, True))
+        elif isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
+            if c.arg.predicate != NOISE_PREDICATE:
+                context.append(Literal(c.arg, False))
+        elif isinstance(c, Not) and isinstance(c.arg, Atom):
+            continue                          # (not (= ?a ?b)): bindings are injective anyway
+        elif _unique_refs(c, names) or (isinstance(c, Not) and isinstance(c.arg, (And, Exists))):
+            continue                          # uniqueness / exclusion: implied by the rule-set semantics
+        else:
+            raise UserError(f"{where}: precondition is outside the rule subset (a conjunction of literals)")
+    fixed: list[Literal] = []
+    prob_blocks: list[Probabilistic] = []
+    effects = action.effect.effects if isinstance(action.effect, AndEffect) else (action.effect,)
+    for e in effects:
+        if isinstance(e, Probabilistic):
+            prob_blocks.append(e)
+        else:
+            fixed += _literals_of(e, where)
+    if len(prob_blocks) > 1:
+        raise UserError(f"{where}: more than one probabilistic block is outside the rule subset")
+    outcomes: list[Outcome] = []
+    probs: list[float] = []
+    noise = Fraction(0)
+    if prob_blocks:
+        for p, e in prob_blocks[0].branches:
+            lits = _literals_of(e, where)
+            if lits == [Literal(Atom(NOISE_PREDICATE))]:
+                noise += p
+                continue
+            outcomes.append(Outcome(tuple(fixed + lits)))
+            probs.append(float(p))
+        rest = prob_blocks[0].rest
+        if rest > 0 and fixed:
+            outcomes.append(Outcome(tuple(fixed)))
+            probs.append(float(rest))
+        else:
+            noise += rest
+    else:
+        outcomes.append(Outcome(tuple(fixed)))
+        probs.append(1.0)
+    action_atom = Atom(prim, tuple(names[:n]))
+    try:
+        return Rule(action_atom, tuple(context), tuple(outcomes), tuple(probs), float(noise))
+    except ValueError as exc:
+        raise UserError(f"{where}: {exc}") from None
+
+
+def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
+    """The NID rules of a domain in the rule subset. With no applicable action nothing changes in
+    PPDDL, so each primitive's default rule is "no change" (``default_noise`` = 0)."""
+    rules = [action_to_rule(a, domain.name) for a in domain.actions]
+    prims = sorted({r.action.predicate for r in rules})
+    return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims))
+
+
+def rules_equal(a: Rule, b: Rule, tol: float = 1e-9) -> bool:
+    """Same action, context, outcomes and probabilities; noise equal within ``tol`` (a PPDDL file
+    stores the outcome probabilities exactly and the noise as the rest of the mass)."""
+    return (a.action == b.action and a.context == b.context and a.outcomes == b.outcomes
+            and a.probs == b.probs and abs(a.noise - b.noise) <= tol)
+

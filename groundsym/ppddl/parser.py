@@ -1,0 +1,341 @@
+"""Parse PPDDL domains and problems (as the IPPC wrote them) into :mod:`groundsym.ppddl.ast`.
+
+The lark grammar (``grammar.lark``) does the syntax; this module walks the parse tree top-down
+with the declarations in scope, so that a misspelt predicate, a wrong arity, an undeclared
+variable, type or object, a negative probability or probabilities summing above 1 are reported
+with the file, line and column of the offending text, as one line (a :class:`PPDDLError`).
+
+A file may hold several ``define``s: IPPC-2008 problem files repeat their domain.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from functools import lru_cache
+from pathlib import Path
+from typing import Iterable, Mapping
+
+import lark
+
+from ..errors import UserError
+from ..fileio import read_text
+from ..logic import Atom, Literal
+from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall,
+                  ForallEffect, Formula, Imply, Not, Or, Predicate, Probabilistic, Problem, RewardEffect,
+                  Typed, When)
+
+
+class PPDDLError(UserError):
+    """A PPDDL file that does not parse or does not make sense; the message names file:line:column."""
+
+
+@lru_cache(maxsize=1)
+def _lark() -> lark.Lark:
+    grammar = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
+    return lark.Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+
+
+_TOKEN_NAMES = {"LPAR": "'('", "RPAR": "')'", "NAME": "a name", "VARIABLE": "a ?variable",
+                "NUMBER": "a number", "MINUS": "'-'", "REQUIREMENT": "a :requirement", "$END": "end of file"}
+
+
+def _syntax_error(exc: lark.exceptions.LarkError, path: str) -> PPDDLError:
+    line, col = getattr(exc, "line", "?"), getattr(exc, "column", "?")
+    if isinstance(exc, lark.exceptions.UnexpectedToken):
+        got = "end of file" if exc.token.type == "$END" else repr(str(exc.token))
+        nice = sorted({_TOKEN_NAMES.get(e, "") for e in exc.expected} - {""})
+        hint = f"; expected {' or '.join(nice)}" if nice and len(nice) <= 4 else ""
+        return PPDDLError(f"{path}:{line}:{col}: syntax error: unexpected {got}{hint}")
+    if isinstance(exc, lark.exceptions.UnexpectedCharacters):
+        return PPDDLError(f"{path}:{line}:{col}: syntax error: unexpected character {exc.char!r}")
+    if isinstance(exc, lark.exceptions.UnexpectedEOF):
+        return PPDDLError(f"{path}: syntax error: unexpected end of file (unbalanced parentheses?)")
+    return PPDDLError(f"{path}: syntax error: {str(exc).splitlines()[0]}")
+
+
+class _Walker:
+    """Builds AST nodes from the lark tree; knows the file name for its error messages."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def fail(self, node: lark.Tree | lark.Token, msg: str) -> PPDDLError:
+        meta = node if isinstance(node, lark.Token) else node.meta
+        line, col = getattr(meta, "line", "?"), getattr(meta, "column", "?")
+        return PPDDLError(f"{self.path}:{line}:{col}: {msg}")
+
+    # ------------------------------------------------------------------ shared pieces
+    def number(self, tok: lark.Token) -> Fraction:
+        try:
+            value = Fraction(str(tok))
+        except (ValueError, ZeroDivisionError):
+            raise self.fail(tok, f"not a number: {tok}") from None
+        return value
+
+    def typed(self, tree: lark.Tree, types: Mapping[str, str] | None) -> tuple[Typed, ...]:
+        """A flat typed list (``?a ?b - t ?c``) -> Typed items; untyped names are ``object``."""
+        out: list[Typed] = []
+        pending: list[str] = []
+        for child in tree.children:
+            if isinstance(child, lark.Token):
+                pending.append(str(child))
+                continue
+            type_node = child.children[0]
+            if isinstance(type_node, lark.Tree):
+                raise self.fail(type_node, "(either ...) types are not supported")
+            tname = str(type_node)
+            if types is not None and tname != OBJECT and tname not in types:
+                raise self.fail(type_node, f"unknown type {tname!r}")
+            if not pending:
+                raise self.fail(type_node, f"type {tname!r} follows no name")
+            out += [Typed(n, tname) for n in pending]
+            pending = []
+        out += [Typed(n) for n in pending]
+        seen: set[str] = set()
+        for t in out:
+            if t.name in seen:
+                raise self.fail(tree, f"{t.name} is declared twice")
+            seen.add(t.name)
+        return tuple(out)
+
+
+class _Scope:
+    """What a formula may mention: predicates, objects/constants and the variables bound so far."""
+
+    def __init__(self, walker: _Walker, predicates: Mapping[str, Predicate], objects: Mapping[str, str],
+                 types: Mapping[str, str], variables: Mapping[str, str] | None = None) -> None:
+        self.w, self.predicates, self.objects, self.types = walker, predicates, objects, types
+        self.variables = dict(variables or {})
+
+    def bind(self, params: Iterable[Typed]) -> "_Scope":
+        return _Scope(self.w, self.predicates, self.objects, self.types,
+                      {**self.variables, **{p.name: p.type for p in params}})
+
+    def term(self, tok: lark.Token) -> str:
+        name = str(tok)
+        if tok.type == "VARIABLE":
+            if name not in self.variables:
+                raise self.w.fail(tok, f"undeclared variable {name}")
+        elif name not in self.objects:
+            raise self.w.fail(tok, f"unknown object or constant {name!r}")
+        return name
+
+    def atom(self, tree: lark.Tree) -> Atom:
+        name_tok, *terms = tree.children
+        pred = self.predicates.get(str(name_tok))
+        if pred is None:
+            raise self.w.fail(name_tok, f"unknown predicate {str(name_tok)!r}")
+        if len(terms) != pred.arity:
+            raise self.w.fail(tree, f"{pred.name} takes {pred.arity} argument(s), got {len(terms)}")
+        return Atom(pred.name, tuple(self.term(t) for t in terms))
+
+    def formula(self, tree: lark.Tree) -> Formula:
+        kind = tree.data
+        if kind == "atom":
+            return self.atom(tree)
+        if kind == "empty":
+            return TRUE
+        if kind in ("and_", "or_"):
+            args = tuple(self.formula(c) for c in tree.children)
+            return And(args) if kind == "and_" else Or(args)
+        if kind == "not_":
+            return Not(self.formula(tree.children[0]))
+        if kind == "imply":
+            return Imply(self.formula(tree.children[0]), self.formula(tree.children[1]))
+        if kind in ("forall", "exists"):
+            params = self.w.typed(tree.children[0], self.types)
+            body = self.bind(params).formula(tree.children[1])
+            return Forall(params, body) if kind == "forall" else Exists(params, body)
+        if kind == "equal":
+            return Atom("=", tuple(self.term(t) for t in tree.children))
+        raise self.w.fail(tree, f"unexpected {kind} in a formula")
+
+    def effect(self, tree: lark.Tree) -> Effect:
+        kind = tree.data
+        if kind == "atom":
+            return Literal(self.atom(tree), True)
+        if kind == "delete":
+            return Literal(self.atom(tree.children[0]), False)
+        if kind == "empty":
+            return NO_EFFECT
+        if kind == "and_effect":
+            return AndEffect(tuple(self.effect(c) for c in tree.children))
+        if kind == "when":
+            return When(self.formula(tree.children[0]), self.effect(tree.children[1]))
+        if kind == "forall_effect":
+            params = self.w.typed(tree.children[0], self.types)
+            return ForallEffect(params, self.bind(params).effect(tree.children[1]))
+        if kind == "probabilistic":
+            return self.probabilistic(tree)
+        if kind == "reward_effect":
+            op, fluent, amount = tree.children
+            name = fluent.children[0]
+            if str(name) != "reward":
+                raise self.w.fail(name, f"only the reward fluent is supported, not {str(name)!r}")
+            value = self.w.number(amount)
+            return RewardEffect(value if str(op).lower() == "increase" else -value)
+        raise self.w.fail(tree, f"unexpected {kind} in an effect")
+
+    def probabilistic(self, tree: lark.Tree) -> Probabilistic:
+        kids = tree.children
+        branches = []
+        for tok, eff in zip(kids[0::2], kids[1::2]):
+            p = self.w.number(tok)
+            if p < 0 or p > 1:
+                raise self.w.fail(tok, f"probability {tok} is outside [0, 1]")
+            branches.append((p, self.effect(eff)))
+        total = sum((p for p, _ in branches), Fraction(0))
+        if total > 1:
+            raise self.w.fail(tree, f"probabilities sum to {float(total):g}, above 1")
+        return Probabilistic(tuple(branches))
+
+
+def _sections(tree: lark.Tree, kinds: Iterable[str]) -> list[lark.Tree]:
+    return [c for c in tree.children if isinstance(c, lark.Tree) and c.data in kinds]
+
+
+def _domain(w: _Walker, tree: lark.Tree) -> Domain:
+    name = str(tree.children[0])
+    requirements = tuple(str(t).lower() for s in _sections(tree, ["requirements"]) for t in s.children)
+    types: dict[str, str] = {}
+    for s in _sections(tree, ["types"]):
+        for t in w.typed(s.children[0], None):
+            types[t.name] = t.type
+    for tname, parent in types.items():
+        if parent != OBJECT and parent not in types:
+            raise w.fail(tree, f"type {tname!r} has an undeclared parent type {parent!r}")
+    constants = tuple(t for s in _sections(tree, ["constants"]) for t in w.typed(s.children[0], types))
+    predicates: dict[str, Predicate] = {}
+    for s in _sections(tree, ["predicates"]):
+        for decl in s.children:
+            pname = str(decl.children[0])
+            if pname in predicates:
+                raise w.fail(decl, f"predicate {pname!r} is declared twice")
+            predicates[pname] = Predicate(pname, w.typed(decl.children[1], types))
+    functions = tuple(Predicate(str(d.children[0]), w.typed(d.children[1], types))
+                      for s in _sections(tree, ["functions"]) for d in s.children)
+    scope = _Scope(w, predicates, {c.name: c.type for c in constants}, types)
+    actions: list[Action] = []
+    for a in _sections(tree, ["action"]):
+        actions.append(_action(w, a, scope))
+        if sum(x.name == actions[-1].name for x in actions) > 1:
+            raise w.fail(a, f"action {actions[-1].name!r} is declared twice")
+    return Domain(name, requirements, tuple(Typed(k, v) for k, v in types.items()), constants,
+                  tuple(predicates.values()), tuple(actions), functions=functions)
+
+
+def _action(w: _Walker, tree: lark.Tree, scope: _Scope) -> Action:
+    name = str(tree.children[0])
+    params: tuple[Typed, ...] = ()
+    for part in _sections(tree, ["parameters"]):
+        params = w.typed(part.children[0], scope.types)
+    inner = scope.bind(params)
+    pre: Formula = TRUE
+    eff: Effect = NO_EFFECT
+    for part in _sections(tree, ["precondition"]):
+        pre = inner.formula(part.children[0])
+    for part in _sections(tree, ["effect_part"]):
+        eff = inner.effect(part.children[0])
+    return Action(name, params, pre, eff)
+
+
+def _problem(w: _Walker, tree: lark.Tree, domains: Mapping[str, Domain]) -> Problem:
+    name = str(tree.children[0])
+    dom_sections = _sections(tree, ["problem_domain"])
+    if not dom_sections:
+        raise w.fail(tree, f"problem {name!r} names no (:domain ...)")
+    dname = str(dom_sections[0].children[0])
+    domain = domains.get(dname)
+    types = {t.name: t.type for t in domain.types} if domain else None
+    objects = tuple(t for s in _sections(tree, ["objects"]) for t in w.typed(s.children[0], types))
+    scope = None
+    if domain is not None:
+        known = {**{c.name: c.type for c in domain.constants}, **{o.name: o.type for o in objects}}
+        scope = _Scope(w, {p.name: p for p in domain.predicates}, known, types or {})
+    init: list[Atom] = []
+    for s in _sections(tree, ["init"]):
+        for item in s.children:
+            if item.data == "atom":
+                init.append(scope.atom(item) if scope else _raw_atom(item))
+    goal = None
+    for s in _sections(tree, ["goal"]):
+        goal = scope.formula(s.children[0]) if scope else None
+    goal_reward = None
+    for s in _sections(tree, ["goal_reward"]):
+        goal_reward = w.number(s.children[0])
+    metric = None
+    for s in _sections(tree, ["metric"]):
+        metric = (str(s.children[0]).lower(), str(s.children[1]))
+    requirements = tuple(str(t).lower() for s in _sections(tree, ["requirements"]) for t in s.children)
+    return Problem(name, dname, objects, tuple(init), goal, goal_reward, metric, requirements)
+
+
+def _raw_atom(tree: lark.Tree) -> Atom:
+    return Atom(str(tree.children[0]), tuple(str(t) for t in tree.children[1:]))
+
+
+def parse_text(text: str, path: str | Path = "<string>",
+               domains: Mapping[str, Domain] | None = None) -> tuple[list[Domain], list[Problem]]:
+    """All domains and problems in ``text``; problems are checked against a domain of the same
+    text or of ``domains`` (by its name) when one is known."""
+    w = _Walker(str(path))
+    try:
+        tree = _lark().parse(text)
+    except lark.exceptions.LarkError as exc:
+        raise _syntax_error(exc, str(path)) from None
+    known = dict(domains or {})
+    out_d: list[Domain] = []
+    out_p: list[Problem] = []
+    for node in tree.children:
+        if node.data == "domain":
+            d = _domain(w, node)
+            known[d.name] = d
+            out_d.append(d)
+        else:
+            p = _problem(w, node, known)
+            if p.domain not in known:
+                raise w.fail(node, f"problem {p.name!r} is for domain {p.domain!r}, which is not loaded")
+            out_p.append(p)
+    return out_d, out_p
+
+
+def parse_file(path: str | Path, domains: Mapping[str, Domain] | None = None) -> tuple[list[Domain], list[Problem]]:
+    return parse_text(read_text(path), path, domains)
+
+
+def parse_domain(text: str, path: str | Path = "<string>") -> Domain:
+    ds, _ = parse_text(text, path)
+    if not ds:
+        raise PPDDLError(f"{path}: holds no (define (domain ...))")
+    return ds[0]
+
+
+def parse_problem(text: str, domain: Domain, path: str | Path = "<string>") -> Problem:
+    _, ps = parse_text(text, path, {domain.name: domain})
+    if not ps:
+        raise PPDDLError(f"{path}: holds no (define (problem ...))")
+    return ps[0]
+
+
+def load_domain(path: str | Path) -> Domain:
+    return parse_domain(read_text(path), path)
+
+
+def load(domain_path: str | Path, problem_path: str | Path | None = None) -> tuple[Domain, Problem | None]:
+    """The domain of ``domain_path`` and the first problem of ``problem_path`` (or of the domain file).
+
+    A problem file that repeats its domain (IPPC-2008) is fine: its problem is checked against the
+    domain of ``domain_path``, which must have the same name.
+    """
+    ds, ps = parse_file(domain_path)
+    if not ds:
+        raise PPDDLError(f"{domain_path}: holds no (define (domain ...))")
+    domain = ds[0]
+    if problem_path is not None and Path(problem_path) != Path(domain_path):
+        _, ps = parse_file(problem_path, {domain.name: domain})
+        if not ps:
+            raise PPDDLError(f"{problem_path}: holds no (define (problem ...))")
+    if ps and ps[0].domain != domain.name:
+        raise PPDDLError(f"{problem_path or domain_path}: problem {ps[0].name!r} is for domain "
+                         f"{ps[0].domain!r}, not {domain.name!r}")
+    return domain, (ps[0] if ps else None)

@@ -1,0 +1,334 @@
+"""PPDDL semantics: grounding, applicability, outcome distributions and random traces.
+
+Why: any PPDDL domain becomes data (ground truth for teaching and for testing rule learning), and
+a domain can be scored as a model (``P(s' | s, a)``). Semantics follow PPDDL 1.0 (Younes et al.):
+conditions of ``when`` are read in the state before the action; independent ``probabilistic``
+blocks combine as a product; the mass a ``probabilistic`` leaves unassigned means no change;
+deletes apply before adds; ``(increase (reward) n)`` adds to the step's reward.
+
+Robot primitives: a domain exported from NID rules names its actions ``<primitive>_r<k>`` and
+carries deictic references as extra parameters (see :mod:`groundsym.ppddl.convert`). A
+:class:`Task` maps every PPDDL action onto the primitive a robot would run, so simulated traces
+hold ``(openHandOver o2)`` rather than ``(openHandOver_r1 o2 o5)``. For ordinary domains the
+primitive is the action itself. A primitive with no applicable PPDDL action changes nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import product
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import UserError
+from ..logic import Atom, Literal
+from ..symbolic_traces import SymbolicDataset, SymbolicTrace
+from .ast import (OBJECT, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
+                  Or, Probabilistic, Problem, RewardEffect, Typed, When)
+from .convert import primitive_of
+
+Outcome = tuple[float, frozenset, frozenset, float]          # probability, adds, dels, reward
+
+
+@dataclass(frozen=True)
+class Successor:
+    """One possible result of a ground action: probability, next state and the reward effects."""
+
+    prob: float
+    state: frozenset
+    reward: float
+
+    def __iter__(self):  # unpacks as (prob, state, reward)
+        return iter((self.prob, self.state, self.reward))
+
+
+class Task:
+    """A domain grounded on a set of typed objects (a problem's, or given)."""
+
+    def __init__(self, domain: Domain, problem_or_objects: Problem | Mapping[str, str] | Iterable[str]) -> None:
+        self.domain = domain
+        self.problem = problem_or_objects if isinstance(problem_or_objects, Problem) else None
+        if self.problem is not None:
+            given = {o.name: o.type for o in self.problem.objects}
+        elif isinstance(problem_or_objects, Mapping):
+            given = dict(problem_or_objects)
+        else:
+            given = {o: OBJECT for o in problem_or_objects}
+        self.objects: dict[str, str] = {**{c.name: c.type for c in domain.constants}, **given}
+        parents = {t.name: t.type for t in domain.types}
+        self._by_type: dict[str, tuple[str, ...]] = {}
+        for tname in {OBJECT, *parents}:
+            self._by_type[tname] = tuple(sorted(o for o, t in self.objects.items() if _is_a(t, tname, parents)))
+        self._parents = parents
+        self._actions = {a.name: a for a in domain.actions}
+        self._primitives = _primitive_table(domain)
+        self._ground_cache: dict[str, list[tuple[str, ...]]] = {}
+
+    # ------------------------------------------------------------------ objects and types
+    def objects_of(self, tname: str) -> tuple[str, ...]:
+        if tname not in self._by_type:
+            raise UserError(f"unknown type {tname!r} in domain {self.domain.name}")
+        return self._by_type[tname]
+
+    def type_atoms(self) -> frozenset:
+        """Type membership as unary atoms, ``(block b1)``: static facts untyped learners can see."""
+        return frozenset(Atom(self.type_predicate(t), (o,)) for t in self._parents for o in self._by_type[t])
+
+    def type_predicate(self, tname: str) -> str:
+        """The unary predicate that writes membership of ``tname`` (``type-X`` if X is also a predicate)."""
+        return f"type-{tname}" if self.domain.predicate(tname) is not None else tname
+
+    def strip_types(self, state: frozenset) -> frozenset:
+        """A state without the type atoms :meth:`type_atoms` adds (so data written by us reads back)."""
+        names = {self.type_predicate(t) for t in self._parents}
+        return frozenset(a for a in state if not (a.arity == 1 and a.predicate in names))
+
+    @property
+    def initial_state(self) -> frozenset:
+        if self.problem is None:
+            raise UserError("no problem given: the initial state is unknown")
+        return frozenset(self.problem.init)
+
+    # ------------------------------------------------------------------ formulas
+    def holds(self, f: Formula, state: frozenset, binding: Mapping[str, str] | None = None) -> bool:
+        b = binding or {}
+        if isinstance(f, Atom):
+            if f.predicate == "=":
+                x, y = (b.get(a, a) for a in f.args)
+                return x == y
+            return f.substitute(b) in state
+        if isinstance(f, Not):
+            return not self.holds(f.arg, state, b)
+        if isinstance(f, And):
+            return all(self.holds(g, state, b) for g in f.args)
+        if isinstance(f, Or):
+            return any(self.holds(g, state, b) for g in f.args)
+        if isinstance(f, Imply):
+            return not self.holds(f.left, state, b) or self.holds(f.right, state, b)
+        if isinstance(f, (Forall, Exists)):
+            combos = (dict(b, **dict(zip((p.name for p in f.params), vals))) for vals in self._groundings(f.params))
+            test = (self.holds(f.body, state, bb) for bb in combos)
+            return all(test) if isinstance(f, Forall) else any(test)
+        raise TypeError(f"not a formula: {f!r}")
+
+    def _groundings(self, params: Sequence[Typed]) -> Iterable[tuple[str, ...]]:
+        return product(*(self.objects_of(p.type) for p in params))
+
+    def goal_holds(self, state: frozenset) -> bool:
+        return self.problem is not None and self.problem.goal is not None and self.holds(self.problem.goal, state)
+
+    @property
+    def goal_reward(self) -> float:
+        """The problem's ``:goal-reward``; 1 when it has a goal but declares none (IPPC-2006)."""
+        if self.problem is None or self.problem.goal is None:
+            return 0.0
+        return float(self.problem.goal_reward) if self.problem.goal_reward is not None else 1.0
+
+    # ------------------------------------------------------------------ ground actions
+    def action(self, name: str) -> Action:
+        a = self._actions.get(name)
+        if a is None:
+            raise UserError(f"domain {self.domain.name} has no action {name!r}")
+        return a
+
+    def groundings(self, name: str) -> list[tuple[str, ...]]:
+        """Every argument tuple of action ``name`` allowed by its parameter types."""
+        if name not in self._ground_cache:
+            self._ground_cache[name] = list(self._groundings(self.action(name).parameters))
+        return self._ground_cache[name]
+
+    def applicable(self, state: frozenset, action: Atom) -> bool:
+        a = self.action(action.predicate)
+        if len(a.parameters) != action.arity:
+            return False
+        if any(self.objects.get(x) is None or not _is_a(self.objects[x], p.type, self._parents)
+               for x, p in zip(action.args, a.parameters)):
+            return False
+        return self.holds(a.precondition, state, dict(zip((p.name for p in a.parameters), action.args)))
+
+    def outcomes(self, state: frozenset, action: Atom) -> list[Successor]:
+        """The distribution over successors of an applicable ground PPDDL action (merged, sorted)."""
+        a = self.action(action.predicate)
+        binding = dict(zip((p.name for p in a.parameters), action.args))
+        merged: dict[tuple[frozenset, float], float] = {}
+        for p, adds, dels, r in self._effect(a.effect, state, binding):
+            if p > 0:
+                key = ((state - dels) | adds, r)
+                merged[key] = merged.get(key, 0.0) + p
+        return sorted((Successor(p, s, r) for (s, r), p in merged.items()), key=lambda x: (sorted(x.state), x.reward))
+
+    def _effect(self, e: Effect, state: frozenset, b: Mapping[str, str]) -> list[Outcome]:
+        if isinstance(e, Literal):
+            atom = frozenset((e.atom.substitute(b),))
+            return [(1.0, atom, frozenset(), 0.0)] if e.positive else [(1.0, frozenset(), atom, 0.0)]
+        if isinstance(e, AndEffect):
+            return _product([self._effect(x, state, b) for x in e.effects])
+        if isinstance(e, Probabilistic):
+            out: list[Outcome] = []
+            for p, sub in e.branches:
+                out += [(float(p) * q, ad, de, r) for q, ad, de, r in self._effect(sub, state, b)]
+            if e.rest > 0:
+                out.append((float(e.rest), frozenset(), frozenset(), 0.0))
+            return out
+        if isinstance(e, When):
+            return self._effect(e.effect, state, b) if self.holds(e.condition, state, b) else [_NOTHING]
+        if isinstance(e, ForallEffect):
+            names = [p.name for p in e.params]
+            return _product([self._effect(e.effect, state, dict(b, **dict(zip(names, vals))))
+                             for vals in self._groundings(e.params)])
+        if isinstance(e, RewardEffect):
+            return [(1.0, frozenset(), frozenset(), float(e.amount))]
+        raise TypeError(f"not an effect: {e!r}")
+
+    # ------------------------------------------------------------------ robot primitives
+    @property
+    def primitives(self) -> dict[str, int]:
+        """Primitive name -> arity."""
+        return {name: n for name, (n, _) in sorted(self._primitives.items())}
+
+    def primitive_actions(self) -> list[Atom]:
+        """Every ground primitive allowed by the parameter types, with distinct arguments, sorted.
+
+        Repeated arguments (``(stack c c)``) are left out: NID rules bind injectively, and no robot
+        puts a block on itself."""
+        out: set[Atom] = set()
+        for name, (n, actions) in self._primitives.items():
+            for aname in actions:
+                out.update(Atom(name, args[:n]) for args in self.groundings(aname) if len(set(args[:n])) == n)
+        return sorted(out)
+
+    def _instances(self, state: frozenset, prim: Atom) -> list[Atom]:
+        """The applicable ground PPDDL actions that run primitive ``prim``."""
+        n, actions = self._primitives.get(prim.predicate, (None, ()))
+        if n != prim.arity:
+            return []
+        found = []
+        for aname in actions:
+            params = self.action(aname).parameters
+            extra = params[n:]
+            for tail in self._groundings(extra):
+                ga = Atom(aname, prim.args + tuple(tail))
+                if self.applicable(state, ga):
+                    found.append(ga)
+        return found
+
+    def is_applicable(self, state: frozenset, prim: Atom) -> bool:
+        return bool(self._instances(state, prim))
+
+    def distribution(self, state: frozenset, action: Atom) -> list[Successor]:
+        """Successors of a ground PPDDL action or primitive; [] where nothing applies.
+
+        Should several PPDDL actions run the same primitive (rules that are not exclusive), each
+        applicable one is taken as equally likely, a documented choice for ill-formed exports.
+        """
+        if action.predicate in self._actions and action.predicate not in self._primitives:
+            return self.outcomes(state, action) if self.applicable(state, action) else []
+        inst = self._instances(state, action)
+        if len(inst) == 1:
+            return self.outcomes(state, inst[0])
+        merged: dict[tuple[frozenset, float], float] = {}
+        for ga in inst:
+            for s in self.outcomes(state, ga):
+                merged[(s.state, s.reward)] = merged.get((s.state, s.reward), 0.0) + s.prob / len(inst)
+        return sorted((Successor(p, s, r) for (s, r), p in merged.items()), key=lambda x: (sorted(x.state), x.reward))
+
+    def probability(self, state: frozenset, action: Atom, succ: frozenset) -> float:
+        """``P(succ | state, action)`` of a primitive; an inapplicable one changes nothing.
+
+        Type atoms written by :func:`simulate_traces` are ignored on both sides.
+        """
+        s, s2 = self.strip_types(state), self.strip_types(succ)
+        dist = self.distribution(s, action)
+        if not dist:
+            return 1.0 if s == s2 else 0.0
+        return sum(x.prob for x in dist if x.state == s2)
+
+
+_NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)
+
+
+def _product(parts: list[list[Outcome]]) -> list[Outcome]:
+    """Independent effects combined: probabilities multiply, changes and rewards add up."""
+    out: list[Outcome] = [_NOTHING]
+    for part in parts:
+        out = [(p * q, a1 | a2, d1 | d2, r1 + r2) for p, a1, d1, r1 in out for q, a2, d2, r2 in part]
+    return out
+
+
+def _is_a(tname: str, ancestor: str, parents: Mapping[str, str]) -> bool:
+    seen = set()
+    while tname not in seen:
+        if tname == ancestor or ancestor == OBJECT:
+            return True
+        seen.add(tname)
+        tname = parents.get(tname, OBJECT)
+    return False
+
+
+def _primitive_table(domain: Domain) -> dict[str, tuple[int, list[str]]]:
+    """primitive name -> (arity, PPDDL actions that run it)."""
+    table: dict[str, tuple[int, list[str]]] = {}
+    for a in domain.actions:
+        name, n = primitive_of(a)
+        if name in table and table[name][0] != n:
+            raise UserError(f"domain {domain.name}: actions for primitive {name!r} disagree on its arity "
+                            f"({table[name][0]} and {n})")
+        table.setdefault(name, (n, []))[1].append(a.name)
+    return table
+
+
+def successor_distribution(domain: Domain, problem_or_objects: Problem | Mapping[str, str] | Iterable[str],
+                           state: frozenset, action: Atom) -> list[tuple[float, frozenset, float]]:
+    """``[(probability, successor state, reward)]`` of a ground action (or primitive) in ``state``;
+    empty when it is not applicable. Build a :class:`Task` once instead when calling this often."""
+    return [tuple(s) for s in Task(domain, problem_or_objects).distribution(state, action)]  # type: ignore[misc]
+
+
+# ------------------------------------------------------------------------------ random traces
+def simulate_traces(task: Task, n_traces: int, length: int, rng: np.random.Generator,
+                    inapplicable: float = 0.0, meta: dict | None = None, progress=None) -> SymbolicDataset:
+    """Random walks from the problem's initial state.
+
+    Each step picks, with probability ``inapplicable``, a primitive whose precondition fails
+    (nothing changes, as when a robot tries), else a uniformly random applicable primitive, and
+    samples its outcome. A trace ends after ``length`` steps or at a dead end (nothing applicable).
+    A step's reward is the goal reward when the goal holds in that step's state, plus the reward
+    effects of the sampled outcome. States carry the type atoms (``(block b1)``).
+    """
+    if not 0.0 <= inapplicable <= 1.0:
+        raise UserError(f"--inapplicable: expected a share in [0, 1], got {inapplicable}")
+    candidates = task.primitive_actions()
+    statics = task.type_atoms()
+    traces = []
+    for i in range(n_traces):
+        state = task.initial_state
+        states, actions, rewards = [state | statics], [], []
+        for _ in range(length):
+            ok = [a for a in candidates if task.is_applicable(state, a)]
+            if not ok:
+                break
+            allowed = set(ok)
+            bad = [a for a in candidates if a not in allowed]
+            r = task.goal_reward if task.goal_holds(state) else 0.0
+            if bad and rng.random() < inapplicable:
+                action = bad[int(rng.integers(len(bad)))]
+                succ = state
+            else:
+                action = ok[int(rng.integers(len(ok)))]
+                dist = task.distribution(state, action)
+                probs = np.array([s.prob for s in dist])
+                pick = dist[int(rng.choice(len(dist), p=probs / probs.sum()))]
+                succ, r = pick.state, r + pick.reward
+            actions.append(action)
+            rewards.append(r)
+            state = succ
+            states.append(state | statics)
+        final_reward = task.goal_reward if task.goal_holds(state) else 0.0
+        traces.append(SymbolicTrace(tuple(sorted(task.objects)), states, actions, rewards, final_reward))
+        if progress is not None:
+            progress.update(i + 1, f"{sum(len(t) for t in traces)} transitions")
+    predicates = {p.name: p.arity for p in task.domain.predicates}
+    predicates.update({task.type_predicate(t.name): 1 for t in task.domain.types})
+    return SymbolicDataset(traces, predicates, task.primitives, dict(meta or {}))
+
