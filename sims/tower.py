@@ -1,0 +1,281 @@
+"""The tower cell: a Franka Panda building towers of cubes (and balls) on a table, as a Sim.
+
+The paper's first scenario (Section VI-B): objects ``o1 .. oM`` (cubes of two sizes, optionally
+balls of a third diameter) lie on a table; the robot runs the primitives ``closeHandAround(X)`` and
+``openHandOver(X)`` with Gaussian motor noise; it sees each object's centre and size
+(``y_i = (x, y, z, size)``) and a reward that measures towers. Physics and the arm's controller live
+in :mod:`sims.tower_world`; this module turns the simulator's poses and contacts into scenes,
+rewards and (for evaluation only) ground-truth atoms. ``docs/tower.md`` describes the cell.
+
+Reward: ``r`` = mean over cubes of the height of the cube's lowest point above the table top, in
+metres; a cube in the hand counts 0, so the reward measures towers, not holding. Episode value
+``V = sum_{t=1..10} gamma^(t-1) r_t`` with ``gamma = 0.8``, the discount the paper states for its
+experiments. :func:`optimal_episode_value` gives the best value in the deterministic world.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import pybullet as pb
+
+from groundsym.errors import UserError
+from groundsym.fileio import atomic_write_bytes
+from groundsym.logic import Atom
+from groundsym.sim import SimOption, parse_options
+from groundsym.world import Scene
+
+from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld
+
+GAMMA = 0.8
+EPISODE_LENGTH = 10
+REGION_X = (0.35, 0.65)            # where start positions are drawn (reachable, in front of the arm)
+REGION_Y = (-0.25, 0.25)
+MIN_GAP = 0.12                     # minimal distance between start centres: room for the open hand
+ON_TABLE_TOL = 0.002               # a lowest point under 2 mm counts as lying on the table (contact slop)
+CONTACT_UP = 0.7                   # a contact whose normal has z above this is "resting on"
+
+OPTIONS: tuple[SimOption, ...] = (
+    SimOption("cubes", int, 7, "number of cubes"),
+    SimOption("big", int, 3, "how many of the cubes are big"),
+    SimOption("balls", int, 0, "number of balls"),
+    SimOption("noise", float, 0.01, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target"),
+    SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
+    SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
+    SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
+)
+
+
+def _check(opts: dict[str, Any]) -> None:
+    """Reject option values the cell cannot build (one line, naming the option)."""
+    def bad(key: str, why: str) -> UserError:
+        return UserError(f"--sim-opt {key}={opts[key]}: {why}")
+
+    for key in ("cubes", "big", "balls"):
+        if opts[key] < 0:
+            raise bad(key, "must be at least 0")
+    if opts["cubes"] + opts["balls"] < 1:
+        raise bad("cubes", "the cell needs at least one object")
+    if opts["cubes"] + opts["balls"] > 10:
+        raise bad("cubes", "at most 10 objects (cubes + balls) fit on the table with room for the hand")
+    if opts["big"] > opts["cubes"]:
+        raise bad("big", f"more big cubes than cubes ({opts['cubes']})")
+    if not 0.0 <= opts["noise"] <= 0.05:
+        raise bad("noise", "expected a standard deviation between 0 and 0.05 m")
+    for key in ("small_size", "big_size", "ball_size"):
+        if not 0.02 <= opts[key] <= 0.065:
+            raise bad(key, "expected a size between 0.02 and 0.065 m (the open hand spans 0.072 m)")
+    if len({opts["small_size"], opts["big_size"], opts["ball_size"]}) < 3:
+        raise bad("ball_size", "small cubes, big cubes and balls need three distinct sizes")
+    if opts["big_size"] <= opts["small_size"]:
+        raise bad("big_size", "must be larger than small_size")
+
+
+class TowerSim:
+    """The tower cell; ``TowerSim(cubes=7, noise="0.01")`` takes option values or strings."""
+
+    name: ClassVar[str] = "tower"
+    OPTIONS: ClassVar[tuple[SimOption, ...]] = OPTIONS
+    feature_names = ("x", "y", "z", "size")
+    primitives = {"closeHandAround": 1, "openHandOver": 1}
+    truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1}
+    episode_length = EPISODE_LENGTH
+    gamma = GAMMA
+
+    def __init__(self, **options: Any) -> None:
+        self.options = parse_options(self.name, OPTIONS, options)
+        _check(self.options)
+        self.objects = tuple(f"o{i + 1}" for i in range(self.options["cubes"] + self.options["balls"]))
+        self.world = TowerWorld()
+        self.rng = np.random.default_rng(0)
+        self.kinds: list[tuple[str, float]] = []
+
+    # ------------------------------------------------------------------ episodes
+
+    def reset(self, seed: int) -> Scene:
+        """A fresh world: objects shuffled over ids, on the table at random places, all from ``seed``.
+
+        One Generator serves the whole episode (start state, then motor noise), so the same seed
+        and options give the same trace bit for bit.
+        """
+        self.rng = np.random.default_rng(seed)
+        o = self.options
+        kinds = ([("cube", o["big_size"])] * o["big"] + [("cube", o["small_size"])] * (o["cubes"] - o["big"])
+                 + [("ball", o["ball_size"])] * o["balls"])
+        self.kinds = [kinds[i] for i in self.rng.permutation(len(kinds))]
+        xy = sample_positions(self.rng, len(self.kinds))
+        yaws = self.rng.uniform(-np.pi / 4, np.pi / 4, len(self.kinds))
+        self.world.build([(shape, size, x, y, yaw) for (shape, size), (x, y), yaw in zip(self.kinds, xy, yaws)])
+        return self.scene()
+
+    def actions(self) -> list[Atom]:
+        return [Atom(p, (obj,)) for p in self.primitives for obj in self.objects]
+
+    def step(self, action: Atom) -> Scene:
+        """Run one primitive (with motor noise drawn from the episode's Generator) until settled."""
+        if not self.kinds:
+            raise RuntimeError("call reset(seed) before step()")
+        if action.predicate not in self.primitives or action.arity != 1 or action.args[0] not in self.objects:
+            raise ValueError(f"{action}: not a primitive of the tower cell (objects {', '.join(self.objects)})")
+        offset = self.rng.normal(0.0, 1.0, 3) * self.options["noise"]
+        index = self.objects.index(action.args[0])
+        if action.predicate == "closeHandAround":
+            self.world.close_hand_around(index, offset)
+        else:
+            self.world.open_hand_over(index, offset)
+        return self.scene()
+
+    # ------------------------------------------------------------------ observation
+
+    def scene(self) -> Scene:
+        pos, orn = self.world.poses()
+        sizes = np.array([size for _, size in self.kinds])
+        features = np.column_stack([pos, sizes])
+        held = self._inhand()
+        lowest = lowest_points(pos, orn, sizes, [shape == "ball" for shape, _ in self.kinds])
+        return Scene(self.objects, features, self._reward(lowest, held), self._truth(pos, held))
+
+    def _reward(self, lowest: np.ndarray, held: set[int]) -> float:
+        cubes = [i for i, (shape, _) in enumerate(self.kinds) if shape == "cube"]
+        if not cubes:
+            return 0.0
+        h = np.where(lowest < ON_TABLE_TOL, 0.0, lowest)
+        return float(np.mean([0.0 if i in held else h[i] for i in cubes]))
+
+    def _inhand(self) -> set[int]:
+        """Objects in the grasp: the stabilised one, or any squeezed between both fingers off the table."""
+        w = self.world
+        held = set() if w.held is None else {w.held}
+        for i, b in enumerate(w.bodies):
+            if (w.contacts(b.uid, w.robot, LEFT_FINGER) and w.contacts(b.uid, w.robot, RIGHT_FINGER)
+                    and not w.contacts(b.uid, w.table)):
+                held.add(i)
+        return held
+
+    def _truth(self, pos: np.ndarray, held: set[int]) -> frozenset[Atom]:
+        """Ground-truth atoms from the simulator's contacts and poses (evaluation only)."""
+        w, ids = self.world, self.objects
+        atoms: set[Atom] = set()
+        on = np.zeros((len(ids), len(ids)), dtype=bool)
+        for i, b in enumerate(w.bodies):
+            shape, size = self.kinds[i]
+            if shape == "ball":
+                atoms.add(Atom("ball", (ids[i],)))
+            elif size == self.options["big_size"]:
+                atoms.add(Atom("big", (ids[i],)))
+            if i in held:
+                atoms.add(Atom("inhand", (ids[i],)))
+                continue
+            if any(c[7][2] > CONTACT_UP for c in w.contacts(b.uid, w.table)):
+                atoms.add(Atom("ontable", (ids[i],)))
+            for j, other in enumerate(w.bodies):
+                if j != i and pos[i, 2] > pos[j, 2] and any(c[7][2] > CONTACT_UP for c in w.contacts(b.uid, other.uid)):
+                    on[i, j] = True
+        above = transitive_closure(on)
+        for i in range(len(ids)):
+            if not on[:, i].any():
+                atoms.add(Atom("clear", (ids[i],)))
+            for j in range(len(ids)):
+                if on[i, j]:
+                    atoms.add(Atom("on", (ids[i], ids[j])))
+                if above[i, j]:
+                    atoms.add(Atom("above", (ids[i], ids[j])))
+        return frozenset(atoms)
+
+    # ------------------------------------------------------------------ pictures and cleanup
+
+    def render(self, path: str | Path, width: int = 640, height: int = 480) -> None:
+        """Write a PNG of the cell (pybullet's software renderer), objects labelled with their ids."""
+        write_png(path, self.picture(width, height), self._labels(width, height))
+
+    def picture(self, width: int, height: int) -> np.ndarray:
+        c = self.world.client
+        view = pb.computeViewMatrix((1.15, -0.55, 0.65), (0.45, 0.0, 0.05), (0, 0, 1), physicsClientId=c)
+        proj = pb.computeProjectionMatrixFOV(45, width / height, 0.05, 5.0, physicsClientId=c)
+        self._camera = (np.array(view).reshape(4, 4).T, np.array(proj).reshape(4, 4).T)
+        img = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,
+                                lightDirection=(1.0, -0.6, 2.0), shadow=1, physicsClientId=c)[2]
+        return np.asarray(img, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+
+    def _labels(self, width: int, height: int) -> list[tuple[float, float, str]]:
+        view, proj = self._camera
+        pos, _ = self.world.poses()
+        out = []
+        for k, p in enumerate(pos):
+            clip = proj @ view @ np.array([*p[:2], p[2] + self.kinds[k][1] / 2 + 0.015, 1.0])
+            ndc = clip[:3] / clip[3]
+            out.append(((ndc[0] + 1) / 2 * width, (1 - ndc[1]) / 2 * height, self.objects[k]))
+        return out
+
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> "TowerSim":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# ---------------------------------------------------------------------- helpers
+
+def sample_positions(rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` start positions in the reachable region, pairwise at least ``MIN_GAP`` apart."""
+    for _ in range(200):
+        pts: list[np.ndarray] = []
+        for _ in range(400):
+            p = np.array([rng.uniform(*REGION_X), rng.uniform(*REGION_Y)])
+            if all(np.hypot(*(p - q)) >= MIN_GAP for q in pts):
+                pts.append(p)
+                if len(pts) == n:
+                    return np.array(pts)
+    raise RuntimeError(f"could not place {n} objects {MIN_GAP} m apart")  # not reached for n <= 10
+
+
+def lowest_points(pos: np.ndarray, orn: np.ndarray, sizes: np.ndarray, balls: list[bool]) -> np.ndarray:
+    """Height of each object's lowest point: a cube's lowest corner whatever its tilt."""
+    out = pos[:, 2] - sizes / 2
+    for k, q in enumerate(orn):
+        if not balls[k]:
+            rz = np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)[2]
+            out[k] = pos[k, 2] - sizes[k] / 2 * np.abs(rz).sum()
+    return out
+
+
+def transitive_closure(rel: np.ndarray) -> np.ndarray:
+    """``above`` from ``on``: X is above Y if a chain of on-relations leads from X down to Y."""
+    closure = rel.copy()
+    for k in range(len(rel)):
+        closure |= closure[:, [k]] & closure[[k], :]
+    return closure
+
+
+def write_png(path: str | Path, rgb: np.ndarray, labels: list[tuple[float, float, str]] = ()) -> None:
+    """Save an RGB image as PNG atomically, with text labels at pixel positions."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    h, w = rgb.shape[:2]
+    fig = Figure(figsize=(w / 100, h / 100), dpi=100)
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.imshow(rgb)
+    ax.set_axis_off()
+    for x, y, text in labels:
+        ax.text(x, y, text, ha="center", va="bottom", fontsize=9, color="black",
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.7})
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def optimal_episode_value(options: dict[str, Any] | None = None) -> float:
+    """The best episode value of the deterministic cell (see :mod:`sims.tower_optimum`)."""
+    from .tower_optimum import best_plan
+
+    opts = parse_options(TowerSim.name, OPTIONS, options or {})
+    _check(opts)
+    return best_plan(opts, GAMMA, EPISODE_LENGTH).value
