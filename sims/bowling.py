@@ -41,8 +41,13 @@ BEHIND_TOL = ROW_DEPTH / 2      # 8.7 cm: half the distance between rows
 N_SPOTS = 10
 
 
-def _spot_list(text: str) -> tuple[int, ...]:
-    """``"1,5,7"`` -> ``(1, 5, 7)``: rack spots numbered as in bowling (1 head pin, 7-10 back row)."""
+def _spot_list(text: str | list[int] | tuple[int, ...]) -> tuple[int, ...]:
+    """``"1,5,7"`` -> ``(1, 5, 7)``: rack spots numbered as in bowling (1 head pin, 7-10 back row).
+
+    A list is taken as it is, so options read back from a traces file's ``meta`` rebuild the sim.
+    """
+    if isinstance(text, (list, tuple)):
+        return tuple(int(t) for t in text)
     text = str(text).strip()
     return tuple(int(t) for t in text.split(",")) if text else ()
 

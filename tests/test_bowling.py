@@ -144,6 +144,17 @@ def test_same_seed_same_game_bit_for_bit_and_seeds_differ():
     assert any(x.shape != y.shape or not np.array_equal(x, y) for x, y in zip(a, c))
 
 
+def test_options_read_back_from_json_rebuild_the_same_sim():
+    """``meta.options`` of a traces file holds lists and numbers; they must make the same sim again."""
+    import json
+    with BowlingSim(spots="2,8,6", noise="0") as sim:
+        stored = json.loads(json.dumps(sim.options))
+        first = sim.reset(4).features
+    with BowlingSim(**stored) as again:
+        assert again.options == sim.options
+        assert np.array_equal(again.reset(4).features, first)
+
+
 def test_small_worlds_use_random_subsets_of_the_rack():
     with BowlingSim(pins=5) as sim:
         racks = set()
