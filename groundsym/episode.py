@@ -117,20 +117,18 @@ class SimEnv:
 class SymbolicEnv:
     """A symbolic world: a successor sampler over states, an optional goal, a reward per step.
 
-    ``successor(state, action, rng)`` draws the next state; ``applicable(state)`` lists the
-    actions that may be tried; the reward of a step is ``goal.reward`` when the goal holds in the
-    state reached, plus ``action_reward(state, action)`` (PPDDL reward effects). A reached goal
-    ends the episode.
+    ``successor(state, action, rng)`` draws ``(next state, reward effects of that outcome)``;
+    ``actions(state)`` lists the primitives that may be tried; the reward of a step is
+    ``goal.reward`` when the goal holds in the state reached, plus the outcome's reward effects.
+    A reached goal ends the episode.
     """
 
     def __init__(self, objects: Sequence[str], start: frozenset, actions: Callable[[frozenset], Sequence[Atom]],
-                 successor: Callable[[frozenset, Atom, np.random.Generator], frozenset],
-                 goal: Goal | None = None, gamma: float = 1.0,
-                 action_reward: Callable[[frozenset, Atom], float] | None = None):
+                 successor: Callable[[frozenset, Atom, np.random.Generator], tuple[frozenset, float]],
+                 goal: Goal | None = None, gamma: float = 1.0):
         self.objects, self.start = tuple(objects), frozenset(start)
         self.actions, self.successor, self.goal = actions, successor, goal
         self.gamma = gamma
-        self.action_reward = action_reward
         self.state = self.start
         self.rng = np.random.default_rng(0)
 
@@ -146,9 +144,9 @@ class SymbolicEnv:
         return float(self.goal.reward) if self.goal is not None and self.goal.holds(state) else 0.0
 
     def step(self, action: Atom, t: int, steps_left: int) -> tuple[Observation, float]:
-        extra = self.action_reward(self.state, action) if self.action_reward else 0.0
-        self.state = frozenset(self.successor(self.state, action, self.rng))
-        return self._observe(t, steps_left), self.reward(self.state) + extra
+        state, extra = self.successor(self.state, action, self.rng)
+        self.state = frozenset(state)
+        return self._observe(t, steps_left), self.reward(self.state) + float(extra)
 
     def start_reward(self) -> float:
         return self.reward(self.start)
@@ -199,3 +197,76 @@ def _plain(info: Any) -> dict:
         else:
             out[k] = str(v)
     return out
+
+
+# ----------------------------------------------------------------------------- PPDDL worlds
+
+def goal_of(problem: Any, where: str = "problem") -> Goal | None:
+    """A problem's goal as a conjunction of ground literals (what PRADA can score), or None.
+
+    Goals outside that subset (``or``, quantifiers) are refused with one line.
+    """
+    from .errors import UserError
+    from .logic import Literal
+    from .ppddl.ast import And, Not
+
+    if problem is None or problem.goal is None:
+        return None
+
+    def lits(f: Any) -> list[Literal]:
+        if isinstance(f, Atom):
+            return [Literal(f, True)]
+        if isinstance(f, Not) and isinstance(f.arg, Atom):
+            return [Literal(f.arg, False)]
+        if isinstance(f, And):
+            return [l for x in f.args for l in lits(x)]
+        raise UserError(f"{where}: goal: only conjunctions of literals can be planned for, got {f!r}")
+
+    reward = float(problem.goal_reward) if problem.goal_reward is not None else 1.0
+    return Goal(tuple(lits(problem.goal)), reward)
+
+
+def ppddl_world(domain: Any, problem: Any, where: str = "problem") -> tuple[SymbolicEnv, Any]:
+    """The PPDDL simulator as an environment, and the :class:`~groundsym.ppddl.simulate.Task`.
+
+    Actions offered are the applicable ground primitives; the reward of a step is the goal reward
+    when the goal holds, plus the reward effects of the outcome that happened.
+    """
+    from .errors import UserError
+    from .ppddl.simulate import Task
+
+    if problem is None:
+        raise UserError(f"{where}: no problem given (the initial state and goal are needed)")
+    task = Task(domain, problem)
+
+    def actions(state: frozenset) -> list[Atom]:
+        return [a for a in task.primitive_actions() if task.is_applicable(state, a)]
+
+    def successor(state: frozenset, action: Atom, rng: np.random.Generator) -> tuple[frozenset, float]:
+        dist = task.distribution(state, action)
+        if not dist:
+            return state, 0.0
+        p = np.array([s.prob for s in dist])
+        k = int(rng.choice(len(dist), p=p / p.sum()))
+        return dist[k].state, float(dist[k].reward)
+
+    goal = goal_of(problem, where)
+    return SymbolicEnv(sorted(task.objects), task.initial_state, actions, successor, goal, gamma=1.0), task
+
+
+def ppddl_model(domain: Any, problem: Any, task: Any, need_rules: bool = True) -> Any:
+    """What a planner may use from a PPDDL domain: its true rules (the NID rule subset), the goal,
+    and the domain and problem themselves (for the external planners)."""
+    from .errors import UserError
+    from .planner import PlanningModel
+    from .ppddl.convert import domain_to_rules
+
+    try:
+        rules = domain_to_rules(domain)
+    except UserError as exc:
+        if need_rules:
+            raise UserError(f"this planner needs the domain as NID rules, but {exc}") from None
+        rules = None
+    preds = {p.name: p.arity for p in domain.predicates}
+    return PlanningModel(task.primitives, predicates=preds, rules=rules, goal=goal_of(problem),
+                         domain=domain, problem=problem, ppddl=(domain, problem), gamma=1.0)
