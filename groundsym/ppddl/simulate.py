@@ -332,3 +332,43 @@ def simulate_traces(task: Task, n_traces: int, length: int, rng: np.random.Gener
     predicates.update({task.type_predicate(t.name): 1 for t in task.domain.types})
     return SymbolicDataset(traces, predicates, task.primitives, dict(meta or {}))
 
+
+
+# ------------------------------------------------------------------------------ a domain as a model
+def typed_objects(domain: Domain, objects: Iterable[str], state: frozenset) -> dict[str, str]:
+    """Each object's most specific type, read from the type atoms ``(block b1)`` that
+    :func:`simulate_traces` writes; ``object`` where there are none."""
+    parents = {t.name: t.type for t in domain.types}
+    probe = Task(domain, {})
+    out = {}
+    for o in objects:
+        kinds = [t for t in parents if Atom(probe.type_predicate(t), (o,)) in state]
+        deepest = [t for t in kinds if all(_is_a(t, k, parents) for k in kinds)]
+        out[o] = deepest[0] if deepest else OBJECT
+    return out
+
+
+def transition_model(path, ds: SymbolicDataset | None = None):
+    """A PPDDL domain file as a transition model for scoring data against its true dynamics.
+
+    Returns ``(probability, names)``: ``probability(s, a, s2, objects) -> (p, key)`` gives
+    ``P(s2 | s, a)`` of primitive ``a`` (an inapplicable one changes nothing) and as ``key`` the
+    PPDDL action that ran it, or None when none applied; ``names`` maps keys to readable names.
+    Object types come from the type atoms in the states; type atoms are ignored as changes.
+    """
+    from .parser import load
+
+    domain, _ = load(path)
+    tasks: dict[tuple, Task] = {}
+
+    def probability(s: frozenset, a: Atom, s2: frozenset, objects: Sequence[str]) -> tuple[float, str | None]:
+        key = tuple(objects)
+        if key not in tasks:
+            tasks[key] = Task(domain, typed_objects(domain, objects, s))
+        task = tasks[key]
+        plain = task.strip_types(s)
+        inst = task._instances(plain, a) if a.predicate in task.primitives else []
+        return task.probability(s, a, s2), (inst[0].predicate if inst else None)
+
+    names = {a.name: f"{a.name} ({domain.name})" for a in domain.actions}
+    return probability, names
