@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-import pybullet as pb
 
 from groundsym.errors import UserError
 from groundsym.fileio import atomic_write_bytes
@@ -28,13 +27,13 @@ from groundsym.logic import Atom
 from groundsym.sim import SimOption, parse_options
 from groundsym.world import Scene
 
-from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld
+from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld, pb
 
 GAMMA = 0.8
 EPISODE_LENGTH = 10
 REGION_X = (0.35, 0.65)            # where start positions are drawn (reachable, in front of the arm)
-REGION_Y = (-0.25, 0.25)
-MIN_GAP = 0.12                     # minimal distance between start centres: room for the open hand
+REGION_Y = (-0.27, 0.27)
+MIN_GAP = 0.13                     # minimal distance between start centres: room for the open hand
 ON_TABLE_TOL = 0.002               # a lowest point under 2 mm counts as lying on the table (contact slop)
 CONTACT_UP = 0.7                   # a contact whose normal has z above this is "resting on"
 
@@ -193,7 +192,7 @@ class TowerSim:
 
     def picture(self, width: int, height: int) -> np.ndarray:
         c = self.world.client
-        view = pb.computeViewMatrix((1.15, -0.55, 0.65), (0.45, 0.0, 0.05), (0, 0, 1), physicsClientId=c)
+        view = pb.computeViewMatrix((1.45, 0.8, 0.95), (0.32, 0.0, 0.2), (0, 0, 1), physicsClientId=c)
         proj = pb.computeProjectionMatrixFOV(45, width / height, 0.05, 5.0, physicsClientId=c)
         self._camera = (np.array(view).reshape(4, 4).T, np.array(proj).reshape(4, 4).T)
         img = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,

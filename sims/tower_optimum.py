@@ -95,3 +95,37 @@ def best_plan(options: dict[str, Any], gamma: float, length: int) -> Plan:
                 towers, hand = nxt, nhand
                 break
     return Plan(value(start, None, length), tuple(moves), tuple(rewards))
+
+
+def ground_plan(plan: Plan, sizes: dict[str, float]) -> list[tuple[str, str]]:
+    """The plan as primitives on named cubes (``sizes``: cube id -> edge), from all on the table.
+
+    A move that changes nothing becomes a primitive that only moves the arm: ``openHandOver`` with
+    an empty hand, ``closeHandAround`` of another cube with a full one.
+    """
+    towers = [[obj] for obj in sorted(sizes)]
+    hand: str | None = None
+    out: list[tuple[str, str]] = []
+
+    def find(shape: tuple[float, ...]) -> list[str]:
+        return next(t for t in towers if tuple(sizes[o] for o in t) == shape)
+
+    for move in plan.moves:
+        if move[0] == "grasp":
+            tower = find(move[1])
+            hand = tower.pop()
+            out.append(("closeHandAround", hand))
+        elif move[0] == "put":
+            tower = find(move[1])
+            out.append(("openHandOver", tower[-1]))
+            tower.append(hand)
+            hand = None
+        elif move[0] == "table":
+            out.append(("openHandOver", hand))
+            towers.append([hand])
+            hand = None
+        else:
+            other = next(t[-1] for t in towers if t)
+            out.append(("closeHandAround", other) if hand else ("openHandOver", other))
+        towers = [t for t in towers if t]
+    return out

@@ -16,9 +16,37 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import os
+import sys
+
 import numpy as np
-import pybullet as pb
-import pybullet_data
+
+
+def _flush_c_stdout() -> None:
+    try:
+        import ctypes
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # pragma: no cover - no C library to flush
+        pass
+
+
+def _import_quietly():
+    """Import pybullet without its "build time" banner on stderr, where progress and errors go."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            import pybullet
+            import pybullet_data
+            _flush_c_stdout()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return pybullet, pybullet_data
+
+
+pb, pybullet_data = _import_quietly()
 
 TIME_STEP = 1.0 / 120.0
 SUB_STEPS = 4
@@ -38,6 +66,7 @@ HOME_Q = (0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785)
 TIP_BELOW_TCP = 0.013             # fingertips reach this far below the TCP
 TRANSIT_CLEARANCE = 0.05           # TCP transit height above the highest object (plus what hangs below)
 RELEASE_GAP = 0.012                # gap between a released object's bottom and the target's top
+PALM_HALF = (0.105, 0.035)         # half extents of the hand across (along the finger axis) and deep
 TABLE_HALF = (0.45, 0.6, 0.02)     # table top at z = 0
 TABLE_CENTRE = (0.45, 0.0)
 DOWN = pb.getQuaternionFromEuler((np.pi, 0.0, 0.0))
@@ -309,12 +338,26 @@ class TowerWorld:
         return float(max(tops.max(), 0.0) + TRANSIT_CLEARANCE + extra)
 
     def _yaw_of(self, index: int) -> float:
-        """The hand yaw that lines the fingers up with the faces of a cube (mod 90 degrees)."""
-        if self.bodies[index].shape == "ball":
-            return 0.0
-        _, orn = pb.getBasePositionAndOrientation(self.bodies[index].uid, physicsClientId=self.client)
-        yaw = pb.getEulerFromQuaternion(orn)[2]
-        return float((yaw + np.pi / 4) % (np.pi / 2) - np.pi / 4)
+        """The hand yaw for grasping object ``index``: fingers square to a cube's faces, and of the
+        two such yaws the one whose wide palm stays further from the neighbours (as a grasp
+        planner would choose)."""
+        pos, orn = self.poses()
+        base = 0.0
+        if self.bodies[index].shape == "cube":
+            base = pb.getEulerFromQuaternion(orn[index])[2]
+            base = float((base + np.pi / 4) % (np.pi / 2) - np.pi / 4)
+        others = [k for k in range(len(self.bodies)) if k != index and k != self.held]
+        d = pos[others, :2] - pos[index, :2]
+        reach = np.array([self.bodies[k].size for k in others]) * 0.71
+        best, best_gap = base, -np.inf
+        for yaw in (base, base + np.pi / 2 if base < 0 else base - np.pi / 2):
+            along = np.abs(d @ np.array([-np.sin(yaw), np.cos(yaw)])) - reach   # fingers open along hand y
+            across = np.abs(d @ np.array([np.cos(yaw), np.sin(yaw)])) - reach
+            in_swath = across < PALM_HALF[1]
+            gap = float(np.min(along[in_swath] - PALM_HALF[0], initial=1.0))
+            if gap > best_gap + 1e-9:
+                best, best_gap = yaw, gap
+        return best
 
     def _hand_yaw(self) -> float:
         q = pb.getLinkState(self.robot, TCP_LINK, physicsClientId=self.client)[5]

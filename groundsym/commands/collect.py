@@ -1,0 +1,63 @@
+"""``groundsym collect``: experience traces of random primitives from a simulation.
+
+The paper's data: ``N`` traces of ``T`` uniformly random primitives, each from a fresh random start
+state, written as ``groundsym.traces/1`` JSON (docs/formats.md) with the sim, its options, the seed
+and the command line in ``meta``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+from pathlib import Path
+
+from ..collect import collect_traces
+from ..errors import UserError
+from ..provenance import provenance
+from ..registry import make_sim
+from ..traces import write_traces
+from ._common import add_sim_args, nonneg_int, positive_int, sim_options
+
+NAME = "collect"
+HELP = "record traces of random primitives from a simulation"
+DESCRIPTION = (HELP + ". Trace i starts from a random start state and runs --length uniformly random primitives; "
+               "everything derives from --seed, so the same seed and options give the same file.")
+ORDER = 10
+
+
+def writable_output(text: str) -> Path:
+    """The path, once a file is known to be writable there, so a typo fails before minutes of work."""
+    path = Path(text)
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory, expected a file path")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path.parent):
+            pass
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UserError(f"{path}: cannot write (the file is read-only)")
+    return path
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_sim_args(p)
+    p.add_argument("--traces", type=positive_int, default=10, help="number of traces N (default 10)")
+    p.add_argument("--length", type=positive_int, default=10, help="primitives per trace T (default 10)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument("-o", "--output", required=True, help="traces JSON to write (groundsym.traces/1)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = writable_output(args.output)
+    sim = make_sim(args.sim, sim_options(args))
+    try:
+        ds = collect_traces(sim, args.traces, args.length, args.seed, progress=not args.quiet,
+                            meta=provenance(args.argv, seed=args.seed))
+    finally:
+        sim.close()
+    write_traces(out, ds)
+    return 0
