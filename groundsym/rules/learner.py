@@ -31,7 +31,7 @@ from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet
 from .outcomes import OutcomeFit, induce_outcomes
 
 ALPHA = 0.5
-DEFAULT_CLIP = (0.01, 0.99)
+DEFAULT_CLIP = (0.001, 0.999)
 
 
 @dataclass(frozen=True)
@@ -206,13 +206,13 @@ class ActionLearner:
         order = list(self.rng.permutation(changed)) + list(self.rng.permutation(same))
         seen: set = set()
         for i in order[: self.opts.max_seeds]:
-            f = self._explain(int(i))
+            f = self._explain(int(i), R)
             if f is not None and f.rule.context not in seen:
                 seen.add(f.rule.context)
                 yield self.integrate(R, [f])
 
-    def _explain(self, i: int) -> RuleFit | None:
-        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily."""
+    def _explain(self, i: int, R: tuple[RuleFit, ...] = ()) -> RuleFit | None:
+        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily against ``R``."""
         ex = self.table.examples[i]
         if self.opts.injective and len(set(ex.action.args)) != len(ex.action.args):
             return None
@@ -231,15 +231,18 @@ class ActionLearner:
                 return None
         if self.fit(ctx) is None or i not in self.fit(ctx).covered:
             return None
-        return self._trim(ctx, i, {sigma[c] for c in changed_objs})
+        return self._trim(ctx, i, {sigma[c] for c in changed_objs}, R)
 
-    def _trim(self, ctx: set[Literal], seed: int, needed_vars: set[str]) -> RuleFit | None:
-        """Greedily drop literals, then whole references, while the score of {r, default} rises."""
+    def _trim(self, ctx: set[Literal], seed: int, needed_vars: set[str], R: tuple[RuleFit, ...]) -> RuleFit | None:
+        """Greedily drop literals, then whole references, while the score of the rule set with the
+        rule integrated rises. (A.9 scores ``{r, default}`` alone; but then a rule that swallows
+        examples it can only call noise costs nothing, since the default rule would call them noise
+        too, and trimming over-generalises. Scoring against ``R`` prices what the rule displaces.)"""
         def ok(f: RuleFit | None) -> bool:
             return f is not None and seed in f.covered and needed_vars <= set(f.rule.variables)
 
         cur = self.fit(ctx)
-        cur_sc = self.score((cur,))
+        cur_sc = self.score(self.integrate(R, [cur]))
         for drop_vars in (False, True):
             while True:
                 if drop_vars:
@@ -250,7 +253,7 @@ class ActionLearner:
                 for c in cands:
                     f = self.fit(c)
                     if ok(f):
-                        sc = self.score((f,))
+                        sc = self.score(self.integrate(R, [f]))
                         if sc > best_sc + 1e-9:
                             best, best_sc, best_ctx = f, sc, c
                 if best is None:

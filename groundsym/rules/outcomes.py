@@ -78,7 +78,8 @@ def log_likelihood(cover: np.ndarray, p: np.ndarray, noise: float, p_min: float,
     C = np.asarray(cover, dtype=float)
     like = (C @ p if C.shape[1] else np.zeros(C.shape[0])) + noise * p_min
     w = np.ones(C.shape[0]) if weights is None else weights
-    return float(w @ np.log(like))
+    with np.errstate(divide="ignore"):                 # an impossible example gives -inf, as it should
+        return float(w @ np.log(like))
 
 
 @dataclass(frozen=True)
