@@ -31,7 +31,7 @@ from groundsym.logic import Atom
 from groundsym.sim import SimOption, parse_options
 from groundsym.world import Scene
 
-from .bowling_world import PIN_COM_Z, PIN_SPACING, ROW_DEPTH, Alley, rack_positions, save_png
+from .bowling_world import PIN_COM_Z, PIN_HEIGHT, PIN_SPACING, ROW_DEPTH, Alley, rack_positions, save_png
 
 RIGHT_OFFSET = 0.075            # throwRightOfCenter aims this far right (+x) of the pin's centre
 UPRIGHT_COS = cos(radians(20))  # a pin stands if its axis is within 20 degrees of vertical ...
@@ -139,7 +139,14 @@ class BowlingSim:
                      truth=truth_atoms(self.objects, features))
 
     def render(self, path: str | Path, width: int = 640, height: int = 480) -> None:
-        save_png(path, self.alley.image(width, height))
+        """A PNG of the alley with each pin's id written just above it."""
+        poses = self.alley.poses()
+        head_z = poses.positions[:, 2] + poses.axes[:, 2] * (PIN_HEIGHT - PIN_COM_Z)
+        foot_z = poses.positions[:, 2] - poses.axes[:, 2] * PIN_COM_Z
+        tops = poses.positions.copy()
+        tops[:, 2] = np.maximum(head_z, foot_z) + 0.03     # just above the pin's highest end
+        at = self.alley.pixels(tops, width, height)
+        save_png(path, self.alley.image(width, height), [(c, r, o) for (c, r), o in zip(at, self.objects)])
 
     def close(self) -> None:
         self.alley.close()

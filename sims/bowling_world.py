@@ -26,10 +26,12 @@ PIN_MASS = 1.53 * SCALE ** 3    # regulation 3 lb 6 oz pin
 BALL_MASS = 6.35 * SCALE ** 3   # a 14 lb ball
 BALL_RADIUS = 0.1085 * SCALE    # regulation 8.5 in diameter
 LANE_HALF_WIDTH = 0.527 * SCALE  # regulation 41.5 in wide
+GUTTER_WIDTH = 0.235 * SCALE    # regulation 9.25 in: the ball (14.2 cm here) fits in it
 DECK_END = 3 * ROW_DEPTH + 0.25  # the pit starts 25 cm behind the last row
 LANE_START = -2.0               # where the modelled lane begins (the ball starts 1.5 m before pin 1)
 BALL_START_Y = -1.5
 FLOOR_Z = -0.06                 # gutters and pit lie below the deck
+CAMERA_EYE, CAMERA_TARGET, CAMERA_FOV = (0.0, -1.0, 1.0), (0.0, 0.42, 0.0), 40
 
 # Friction and restitution are combined by Bullet as products of the two bodies' values.
 LANE_FRICTION, PIN_FRICTION, BALL_FRICTION = 0.6, 0.5, 0.3
@@ -146,9 +148,10 @@ class Alley:
         wall = (0.25, 0.25, 0.3, 1)
         side_len = (far + 0.5) / 2
         for sign in (-1, 1):
-            self._static_box((0.02, side_len, 0.25), (sign * (LANE_HALF_WIDTH + 0.12), far - side_len, 0.19),
+            self._static_box((0.02, side_len, 0.15), (sign * (LANE_HALF_WIDTH + GUTTER_WIDTH + 0.02),
+                                                      far - side_len, 0.09),
                              wall, 0.5, 0.3)
-        self._static_box((LANE_HALF_WIDTH + 0.14, 0.02, 0.25), (0, far, 0.19), wall, 0.8, 0.1)
+        self._static_box((LANE_HALF_WIDTH + GUTTER_WIDTH + 0.04, 0.02, 0.15), (0, far, 0.09), wall, 0.8, 0.1)
 
     def _pin_shapes(self) -> tuple[int, int]:
         """Compound collision and visual shapes of one pin, framed at its centre of mass."""
@@ -232,16 +235,30 @@ class Alley:
         pb.resetBaseVelocity(self.ball, (0, speed, 0), (-speed / BALL_RADIUS, 0, 0), physicsClientId=c)
 
     # -- looking --------------------------------------------------------------------------------
-    def image(self, width: int, height: int) -> np.ndarray:
-        """An RGB image (height x width x 3, uint8) from behind and above the bowler's end."""
+    def _camera(self, width: int, height: int) -> tuple[list[float], list[float]]:
+        """View and projection matrices: from above and behind the bowler's end, looking down the lane."""
         c = self.client
-        view = pb.computeViewMatrix(cameraEyePosition=(0.0, -1.35, 0.75), cameraTargetPosition=(0.0, 0.35, 0.0),
+        view = pb.computeViewMatrix(cameraEyePosition=CAMERA_EYE, cameraTargetPosition=CAMERA_TARGET,
                                     cameraUpVector=(0, 0, 1), physicsClientId=c)
-        proj = pb.computeProjectionMatrixFOV(fov=45, aspect=width / height, nearVal=0.05, farVal=6.0,
+        proj = pb.computeProjectionMatrixFOV(fov=CAMERA_FOV, aspect=width / height, nearVal=0.05, farVal=6.0,
                                              physicsClientId=c)
+        return view, proj
+
+    def image(self, width: int, height: int) -> np.ndarray:
+        """An RGB image (height x width x 3, uint8) of the alley (pybullet's software renderer)."""
+        view, proj = self._camera(width, height)
         _, _, rgba, _, _ = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,
-                                             physicsClientId=c)
+                                             physicsClientId=self.client)
         return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+
+    def pixels(self, points: np.ndarray, width: int, height: int) -> np.ndarray:
+        """Where world points (K x 3) appear in :meth:`image` (K x 2 pixel columns and rows)."""
+        view, proj = self._camera(width, height)
+        # pybullet's matrices are column-major (OpenGL): reshape to 4 x 4 and transpose
+        m = np.array(proj).reshape(4, 4).T @ np.array(view).reshape(4, 4).T
+        clip = np.hstack([points, np.ones((len(points), 1))]) @ m.T
+        ndc = clip[:, :2] / clip[:, 3:4]
+        return np.column_stack([(ndc[:, 0] + 1) / 2 * width, (1 - ndc[:, 1]) / 2 * height])
 
     def close(self) -> None:
         if self.client is not None and self.client >= 0:
@@ -249,14 +266,30 @@ class Alley:
         self.client = -1
 
 
-def save_png(path: str | Path, rgb: np.ndarray) -> None:
-    """Write an RGB array as PNG atomically (matplotlib's writer; no extra dependency)."""
+def save_png(path: str | Path, rgb: np.ndarray, labels: list[tuple[float, float, str]] = ()) -> None:
+    """Write an RGB image as PNG atomically, with text labels at (column, row) pixels.
+
+    matplotlib's Agg canvas draws the labels, so the file has exactly the image's pixel size.
+    """
     import io
 
-    import matplotlib.image as mpimg
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     from groundsym.fileio import atomic_write_bytes
 
+    height, width = rgb.shape[:2]
+    dpi = 100
+    fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.imshow(rgb, interpolation="nearest")
+    ax.set_axis_off()
+    size = max(6.0, height / 45)
+    for col, row, text in labels:
+        if 0 <= col < width and 0 <= row < height:
+            ax.text(col, row, text, fontsize=size, ha="center", va="bottom", color="black",
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75})
     buf = io.BytesIO()
-    mpimg.imsave(buf, rgb, format="png")
+    fig.savefig(buf, format="png", dpi=dpi)
     atomic_write_bytes(path, buf.getvalue())

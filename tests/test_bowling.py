@@ -85,6 +85,19 @@ def test_throw_down_an_empty_lane_knocks_only_that_column():
             np.testing.assert_allclose(after.features[2:], scene.features[2:], atol=2e-3)
 
 
+def test_right_of_the_rightmost_pin_is_a_gutter_ball():
+    """7.5 cm right of spot 10 (x = 0.375) is past the lane edge (0.346): the ball drops into the
+    gutter and passes the pins; 7.5 cm right of spot 7 still hits it, and so does a centre throw."""
+    with BowlingSim(spots="7,10") as sim:
+        for seed in range(3):
+            sim.reset(seed)
+            assert fallen_spots(sim, sim.step(Atom("throwRightOfCenter", ("p2",)))) == set()
+            sim.reset(seed)
+            assert fallen_spots(sim, sim.step(Atom("throwRightOfCenter", ("p1",)))) == {7}
+            sim.reset(seed)
+            assert fallen_spots(sim, sim.step(Atom("throwAtCenter", ("p2",)))) == {10}
+
+
 def test_fallen_pins_stay_for_the_second_throw():
     """A second throw down the same empty column finds the pins where the first left them."""
     with BowlingSim(spots="4,9", noise=0.0, speed_noise=0.0) as sim:
