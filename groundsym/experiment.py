@@ -1,0 +1,383 @@
+"""The paper's evaluation protocol (Section VI-B), behind ``groundsym evaluate``.
+
+One *unit* is one run at one symbol-data size N. It collects N random transitions (traces of
+10 primitives) and learns symbols on them; then, for every model-trace count n, it collects n
+fresh random traces, abstracts them with those symbols, learns NID rules and the reward model,
+and runs every method from K start states (all objects on the table) for T primitives, recording
+each episode's value ``sum_t gamma^(t-1) r_t``. A method's figure for the run is the mean over its
+K episodes; the table reports the mean over runs with its standard error.
+
+Seeds come from ``numpy.random.SeedSequence(seed, spawn_key=...)`` per unit and per run, never
+from a shared stream, so a unit's result does not depend on which worker runs it or on what ran
+before: the same seed gives the same table for any number of workers. Start states depend on the
+run only, so every method and setting of a run starts from the same K scenes (common random
+numbers). Each finished unit is written to ``results/runs/`` at once; an interrupted evaluation
+resumes from those files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from .errors import UserError
+from .fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json
+from .progress import Progress
+
+RESULTS_SCHEMA = "groundsym.results/1"
+UNIT_SCHEMA = "groundsym.evaluation-unit/1"
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """Everything that decides the numbers (not ``runs``, which only says how many, nor ``workers``)."""
+
+    sim: str
+    methods: tuple[str, ...]
+    symbol_data: tuple[int, ...]
+    model_traces: tuple[int, ...]
+    seed: int = 0
+    evals: int = 100_000
+    steps: int | None = None
+    starts: int = 3
+    unary: int = 1
+    binary: int = 1
+    restarts: int = 4
+    trace_length: int = 10
+    sim_options: Mapping[str, str] = field(default_factory=dict)
+    planner_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    truth_symbols: tuple[str, ...] = ()
+
+    def key(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["sim_options"] = dict(sorted(self.sim_options.items()))
+        d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
+        return d
+
+    def fingerprint(self) -> str:
+        return hashlib.sha256(json.dumps(self.key(), sort_keys=True).encode()).hexdigest()[:16]
+
+
+# ----------------------------------------------------------------------------- symbols
+
+@dataclass(frozen=True)
+class TruthSymbols:
+    """The simulator's ground-truth relations as the abstraction (an oracle, for diagnosis only:
+    it separates planning from symbol learning)."""
+
+    names: tuple[str, ...]
+    arities: Mapping[str, int]
+
+    @property
+    def predicates(self) -> dict[str, int]:
+        return {p: self.arities[p] for p in self.names}
+
+    def abstract_scene(self, scene: Any) -> frozenset:
+        return frozenset(a for a in scene.truth if a.predicate in self.names)
+
+    def to_symbolic_dataset(self, ds: Any) -> Any:
+        from .symbolic_traces import SymbolicDataset, SymbolicTrace
+
+        traces = []
+        for tr in ds.traces:
+            states = [self.abstract_scene(s) for s in tr.scenes]
+            rewards = [float(s.reward) for s in tr.scenes]
+            traces.append(SymbolicTrace(tr.objects, states, list(tr.actions), rewards[:-1], rewards[-1]))
+        return SymbolicDataset(traces, self.predicates, dict(ds.primitives), {"truth_symbols": list(self.names)})
+
+
+def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, dict[str, Any]]:
+    """Symbols for one unit: learned by annealing on ``ds`` (or the truth oracle), and a report."""
+    if cfg.truth_symbols:
+        unknown = [p for p in cfg.truth_symbols if p not in sim.truth_predicates]
+        if unknown:
+            raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
+                            f"({', '.join(sorted(sim.truth_predicates))})")
+        return TruthSymbols(tuple(cfg.truth_symbols), dict(sim.truth_predicates)), {"symbols": "truth"}
+    from .anneal import AnnealConfig, learn_symbol_set
+
+    acfg = AnnealConfig(unary=cfg.unary, binary=cfg.binary, evals=cfg.evals, restarts=cfg.restarts)
+    result = learn_symbol_set(ds, acfg, seed=seed, workers=1, progress=False)
+    return result.symbols, {"symbols": "learned", "loss": float(result.loss)}
+
+
+def grounding_f1(symbols: Any, ds: Any) -> dict[str, Any]:
+    """How each learned symbol matches the sim's truth on ``ds`` (best relation, either argument
+    order): the check that the annealing budget was enough."""
+    try:
+        from .grounding import grounding_report
+    except ImportError:
+        return {}
+    return {"grounding": [dict(r) for r in grounding_report(symbols, ds)]}
+
+
+# ----------------------------------------------------------------------------- one unit
+
+_SIM_CACHE: dict[str, Any] = {}
+
+
+def _sim(cfg: EvalConfig) -> Any:
+    """One simulation per worker process, reused by all its units (pybullet setup is slow)."""
+    from .registry import make_sim
+
+    key = json.dumps([cfg.sim, dict(cfg.sim_options)], sort_keys=True)
+    if key not in _SIM_CACHE:
+        _SIM_CACHE[key] = make_sim(cfg.sim, dict(cfg.sim_options))
+    return _SIM_CACHE[key]
+
+
+def start_seeds(cfg: EvalConfig, run: int) -> list[int]:
+    """The K start states of a run: the same for every method and setting of that run."""
+    return [int(x) for x in np.random.SeedSequence(cfg.seed, spawn_key=(0, run)).generate_state(cfg.starts)]
+
+
+def unit_seeds(cfg: EvalConfig, n_symbol: int, run: int) -> dict[str, Any]:
+    ss = np.random.SeedSequence(cfg.seed, spawn_key=(1, n_symbol, run))
+    s = [int(x) for x in ss.generate_state(2 + 2 * len(cfg.model_traces))]
+    return {"symbol_data": s[0], "anneal": s[1],
+            "model_data": dict(zip(cfg.model_traces, s[2::2])), "planners": dict(zip(cfg.model_traces, s[3::2]))}
+
+
+def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> dict[str, Any]:
+    """Learn symbols on N transitions, then models and episodes for every model-trace count."""
+    from .collect import collect_traces
+    from .episode import SimEnv, run_episode
+    from .modeldir import learn_symbolic_model, load_model
+    from .planner import PlanningModel, make_planner
+
+    t0 = time.monotonic()
+    sim = _sim(cfg)
+    seeds = unit_seeds(cfg, n_symbol, run)
+    n_traces = max(1, math.ceil(n_symbol / cfg.trace_length))
+    sym_data = collect_traces(sim, n_traces, cfg.trace_length, seeds["symbol_data"], progress=False)
+    symbols, report = learn_symbols(sym_data, cfg, seeds["anneal"], sim)
+    steps = cfg.steps or int(sim.episode_length)
+    starts = start_seeds(cfg, run)
+    entries = []
+    for n in cfg.model_traces:
+        mdata = collect_traces(sim, n, cfg.trace_length, seeds["model_data"][n], progress=False)
+        sds = symbols.to_symbolic_dataset(mdata)
+        mdir = Path(work_dir) / f"model-N{n_symbol}-n{n}-run{run:03d}"
+        learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False)
+        m = load_model(mdir)
+        pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,
+                           rules=m.rules, reward=m.reward, traces=mdata, symbolic_traces=sds, gamma=float(sim.gamma))
+        pseeds = np.random.SeedSequence(seeds["planners"][n]).generate_state(len(cfg.methods) * len(starts))
+        for i, method in enumerate(cfg.methods):
+            values = []
+            for k, start in enumerate(starts):
+                planner = make_planner(method, pm, cfg.planner_options.get(method, {}),
+                                       int(pseeds[i * len(starts) + k]))
+                values.append(run_episode(SimEnv(sim, symbols), planner, steps, start, method).value)
+            entries.append({"model_traces": n, "method": method, "values": values, "mean": float(np.mean(values))})
+    report.update(grounding_f1(symbols, sym_data) if not cfg.truth_symbols else {})
+    return {"schema": UNIT_SCHEMA, "config": cfg.fingerprint(), "symbol_data": n_symbol, "run": run,
+            "entries": entries, "report": report, "seconds": time.monotonic() - t0}
+
+
+def _run_unit_job(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str) -> dict[str, Any]:
+    return run_unit(cfg, n_symbol, run, work_dir)
+
+
+# ----------------------------------------------------------------------------- the whole evaluation
+
+def unit_path(out: Path, n_symbol: int, run: int) -> Path:
+    return out / "runs" / f"N{n_symbol}-run{run:03d}.json"
+
+
+def _check_config(out: Path, cfg: EvalConfig) -> None:
+    """Resume only an evaluation with the same options; never mix two."""
+    path = out / "config.json"
+    if path.exists():
+        old = read_json(path)
+        if old.get("fingerprint") != cfg.fingerprint():
+            raise UserError(f"{path}: {out} holds an evaluation with other options; "
+                            f"resume it with the same options or choose another -o")
+    else:
+        atomic_write_json(path, {"fingerprint": cfg.fingerprint(), "config": cfg.key()})
+
+
+def evaluate(cfg: EvalConfig, runs: int, out: str | Path, workers: int = 1, progress: bool = True,
+             optimum: float | None = None, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Run (or resume) every unit, then write results.json, results.md and results.png."""
+    out = Path(out)
+    _check_config(out, cfg)
+    todo = [(N, r) for r in range(runs) for N in cfg.symbol_data if not unit_path(out, N, r).exists()]
+    total = runs * len(cfg.symbol_data)
+    bar = Progress(total, "evaluate", enabled=progress)
+    done = total - len(todo)
+    bar.update(done, f"{done} unit(s) resumed from {out / 'runs'}", force=True)
+    work = out / "models"
+    if workers <= 1:
+        for N, r in todo:
+            _save_unit(out, run_unit(cfg, N, r, work))
+            done += 1
+            bar.update(done, _status(out, cfg, runs))
+    else:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+            futures = [pool.submit(_run_unit_job, cfg, N, r, str(work)) for N, r in todo]
+            for fut in as_completed(futures):
+                _save_unit(out, fut.result())
+                done += 1
+                bar.update(done, _status(out, cfg, runs))
+    bar.close()
+    results = aggregate(out, cfg, runs, optimum, provenance)
+    write_outputs(out, results)
+    return results
+
+
+def _save_unit(out: Path, unit: dict[str, Any]) -> None:
+    atomic_write_json(unit_path(out, unit["symbol_data"], unit["run"]), unit)
+
+
+def _units(out: Path, cfg: EvalConfig, runs: int) -> list[dict[str, Any]]:
+    units = []
+    for r in range(runs):
+        for N in cfg.symbol_data:
+            p = unit_path(out, N, r)
+            if p.exists():
+                u = read_json(p)
+                if u.get("config") != cfg.fingerprint():
+                    raise UserError(f"{p}: config: from an evaluation with other options")
+                units.append(u)
+    return units
+
+
+def _status(out: Path, cfg: EvalConfig, runs: int) -> str:
+    rows = aggregate(out, cfg, runs, None, None)["methods"]
+    return ", ".join(f"{r['method']}@{r['symbol_data']}/{r['model_traces']}: {r['mean']:.3g}" for r in rows[:6])
+
+
+def aggregate(out: Path, cfg: EvalConfig, runs: int, optimum: float | None,
+              provenance: Mapping[str, Any] | None) -> dict[str, Any]:
+    """Mean over runs of the per-run means, with the standard error of that mean."""
+    per: dict[tuple[int, int, str], list[float]] = {}
+    grounding: dict[int, list[Any]] = {}
+    for u in _units(out, cfg, runs):
+        for e in u["entries"]:
+            per.setdefault((u["symbol_data"], e["model_traces"], e["method"]), []).append(float(e["mean"]))
+        if u.get("report", {}).get("grounding"):
+            grounding.setdefault(u["symbol_data"], []).append(u["report"]["grounding"])
+    rows = []
+    for N in cfg.symbol_data:
+        for n in cfg.model_traces:
+            for m in cfg.methods:
+                v = np.array(per.get((N, n, m), []))
+                if not len(v):
+                    continue
+                se = float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else float("nan")
+                rows.append({"method": m, "symbol_data": N, "model_traces": n, "mean": float(v.mean()),
+                             "stderr": se if np.isfinite(se) else None, "n": int(len(v)),
+                             "share_of_optimum": float(v.mean() / optimum) if optimum else None})
+    meta = {"config": cfg.key(), "runs": runs, "units_done": sum(len(v) for v in per.values()) // max(
+        1, len(cfg.methods) * len(cfg.model_traces)), "grounding": _grounding_summary(grounding)}
+    if provenance:
+        meta["provenance"] = dict(provenance)
+    return {"schema": RESULTS_SCHEMA, "methods": rows, "optimum": optimum, "meta": meta}
+
+
+def _grounding_summary(grounding: Mapping[int, list[Any]]) -> dict[str, Any]:
+    """Mean F1 per symbol-data size of each learned symbol's best-matching relation."""
+    out = {}
+    for N, reports in grounding.items():
+        f1s: dict[str, list[float]] = {}
+        for rep in reports:
+            for r in rep:
+                f1s.setdefault(f"{r.get('symbol')}~{r.get('best_match')}", []).append(float(r.get("f1", 0.0)))
+        out[str(N)] = {k: float(np.mean(v)) for k, v in sorted(f1s.items())}
+    return out
+
+
+# ----------------------------------------------------------------------------- outputs
+
+def markdown_table(results: Mapping[str, Any]) -> str:
+    opt = results.get("optimum")
+    lines = [f"Deterministic optimum: {opt:.4g}" if opt else "Deterministic optimum: not known for this sim", "",
+             "| symbol data | model traces | method | mean value | stderr | runs | share of optimum |",
+             "|---:|---:|---|---:|---:|---:|---:|"]
+    for r in results["methods"]:
+        se = f"{r['stderr']:.3g}" if r["stderr"] is not None else "-"
+        share = f"{100 * r['share_of_optimum']:.1f}%" if r["share_of_optimum"] is not None else "-"
+        lines.append(f"| {r['symbol_data']} | {r['model_traces']} | {r['method']} | {r['mean']:.4g} | {se} | "
+                     f"{r['n']} | {share} |")
+    return "\n".join(lines) + "\n"
+
+
+def bar_chart(results: Mapping[str, Any]) -> bytes:
+    """One panel per model-trace count, bars per method over symbol-data sizes (like Fig. 2)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = results["methods"]
+    cfg = results["meta"]["config"]
+    methods, Ns, ns = cfg["methods"], cfg["symbol_data"], cfg["model_traces"]
+    fig, axes = plt.subplots(1, len(ns), figsize=(4.5 * len(ns), 3.6), squeeze=False, sharey=True)
+    width = 0.8 / max(len(methods), 1)
+    for ax, n in zip(axes[0], ns):
+        for i, m in enumerate(methods):
+            got = {r["symbol_data"]: r for r in rows if r["method"] == m and r["model_traces"] == n}
+            xs = [j + (i - (len(methods) - 1) / 2) * width for j, N in enumerate(Ns) if N in got]
+            ys = [got[N]["mean"] for N in Ns if N in got]
+            es = [got[N]["stderr"] or 0.0 for N in Ns if N in got]
+            ax.bar(xs, ys, width, yerr=es, capsize=2, label=m)
+        if results.get("optimum"):
+            ax.axhline(results["optimum"], color="k", ls="--", lw=1, label="optimum")
+        ax.set_xticks(range(len(Ns)), [str(N) for N in Ns])
+        ax.set_xlabel("data for symbol learning")
+        ax.set_title(f"{cfg['sim']}: {n} model trace(s)")
+    axes[0][0].set_ylabel("episode value")
+    axes[0][-1].legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def write_outputs(out: Path, results: Mapping[str, Any]) -> None:
+    atomic_write_json(out / "results.json", results)
+    atomic_write_text(out / "results.md", markdown_table(results))
+    if results["methods"]:
+        atomic_write_bytes(out / "results.png", bar_chart(results))
+
+
+def optimum_of(sim_name: str, options: Mapping[str, str]) -> float | None:
+    """The sim module's ``optimal_episode_value(options)`` if it has one (the tower does)."""
+    import importlib
+
+    from .registry import get_sim_class
+
+    mod = importlib.import_module(get_sim_class(sim_name).__module__)
+    fn = getattr(mod, "optimal_episode_value", None)
+    return float(fn(dict(options))) if fn is not None else None
+
+
+def parse_list(text: str, flag: str) -> tuple[int, ...]:
+    try:
+        vals = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise UserError(f"{flag} {text}: expected whole numbers separated by commas") from None
+    if not vals or any(v < 1 for v in vals):
+        raise UserError(f"{flag} {text}: expected positive whole numbers")
+    return vals
+
+
+def methods_list(text: str, known: Sequence[str]) -> tuple[str, ...]:
+    ms = tuple(m.strip() for m in text.split(",") if m.strip())
+    for m in ms:
+        if m.split(":", 1)[0] not in known:
+            raise UserError(f"--methods {m}: unknown planner (available: {', '.join(known)})")
+    if not ms:
+        raise UserError("--methods: name at least one planner")
+    return ms
