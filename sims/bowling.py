@@ -76,6 +76,9 @@ class BowlingSim:
     truth_predicates: ClassVar[dict[str, int]] = {"upright": 1, "sameColumn": 2, "behind": 2}
     episode_length: ClassVar[int] = 2
     gamma: ClassVar[float] = 1.0
+    # How a game is scored: "final" = the reward of the last scene (pins down after both throws),
+    # not the discounted sum of scene rewards, which would count the first throw's pins twice.
+    episode_score: ClassVar[str] = "final"
 
     def __init__(self, **options: Any):
         opts = parse_options(self.name, self.OPTIONS, options)
