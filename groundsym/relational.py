@@ -131,33 +131,17 @@ def permutation_cost(a: Encoded, b: Encoded, perm: np.ndarray) -> float:
     return float(cost + int(np.sum(a.binary != b.binary[perm][:, perm])))
 
 
-def _twin_groups(e: Encoded) -> np.ndarray:
+def twin_groups(e: Encoded) -> np.ndarray:
     """Group id per object: objects in one group are interchangeable (swapping any two leaves e)."""
     m = e.n_objects
-    group = np.arange(m)
-    for i in range(m):
-        if group[i] != i:
-            continue
-        for j in range(i + 1, m):
-            if group[j] == j and _are_twins(e, i, j):
-                group[j] = i
-    return group
-
-
-def _are_twins(e: Encoded, i: int, j: int) -> bool:
-    if e.lock[i] != e.lock[j] or np.any(e.unary[i] != e.unary[j]):
-        return False
-    rest = np.ones(e.n_objects, dtype=bool)
-    rest[[i, j]] = False
-    b = e.binary
-    return bool(np.array_equal(b[i, rest], b[j, rest]) and np.array_equal(b[rest, i], b[rest, j])
-                and np.array_equal(b[i, j], b[j, i]))
+    tw = _twins((_codes(e.unary) + (e.lock << e.unary.shape[1]))[None], _codes(e.binary)[None])[0]
+    return np.argmax(tw, axis=1) if m else np.zeros(0, dtype=np.int64)  # first twin = group id
 
 
 class _Search:
     """Branch and bound for one pair (a, b); see :func:`exact_state_distance`."""
 
-    def __init__(self, a: Encoded, b: Encoded, threshold: float):
+    def __init__(self, a: Encoded, b: Encoded, threshold: float, groups: np.ndarray | None):
         self.a, self.b = a, b
         m = a.n_objects
         self.m = m
@@ -167,7 +151,7 @@ class _Search:
         self.forbid = a.lock[:, None] != b.lock[None, :]
         self.c0 = unary + np.where(self.forbid, _FORBID, 0.0)
         self.const = float(np.sum(a.nullary != b.nullary))
-        self.groups = _twin_groups(b)
+        self.groups = twin_groups(b) if groups is None else groups
         self.best = INF
         self.best_perm: np.ndarray | None = None
         self.threshold = threshold
@@ -178,22 +162,20 @@ class _Search:
     def bound_matrix(self, rows: list[int], cols: list[int], assigned: list[tuple[int, int]]) -> np.ndarray:
         """Lower-bound cost of matching each remaining a-object with each remaining b-object."""
         ea, eb = self.ea, self.eb
-        cost = self.c0[np.ix_(rows, cols)].copy()
+        r, c = np.array(rows)[:, None], np.array(cols)[:, None]
+        cost = self.c0[r, c.T]
         if assigned:
-            ka = [k for k, _ in assigned]
-            kb = [p for _, p in assigned]
-            out_a = ea[np.ix_(rows, ka)]            # (r, d, L)
-            out_b = eb[np.ix_(cols, kb)]            # (c, d, L)
-            in_a = ea[np.ix_(ka, rows)].transpose(1, 0, 2)
-            in_b = eb[np.ix_(kb, cols)].transpose(1, 0, 2)
-            cost += np.abs(out_a[:, None] - out_b[None]).sum(axis=(2, 3))
-            cost += np.abs(in_a[:, None] - in_b[None]).sum(axis=(2, 3))
+            ka = np.array([k for k, _ in assigned])[None, :]
+            kb = np.array([p for _, p in assigned])[None, :]
+            out_a, out_b = ea[r, ka], eb[c, kb]            # (r, d, L), (c, d, L)
+            in_a, in_b = ea[ka.T, r.T].transpose(1, 0, 2), eb[kb.T, c.T].transpose(1, 0, 2)
+            cost = cost + np.abs(out_a[:, None] - out_b[None]).sum(axis=(2, 3)) \
+                + np.abs(in_a[:, None] - in_b[None]).sum(axis=(2, 3))
         if len(rows) > 1:
-            sub_a = ea[np.ix_(rows, rows)]
-            sub_b = eb[np.ix_(cols, cols)]
+            sub_a, sub_b = ea[r, r.T], eb[c, c.T]
             do = np.abs(sub_a.sum(1)[:, None] - sub_b.sum(1)[None]).sum(-1)
             di = np.abs(sub_a.sum(0)[:, None] - sub_b.sum(0)[None]).sum(-1)
-            cost += 0.5 * (do + di)
+            cost = cost + 0.5 * (do + di)
         return cost
 
     def full_cost(self, perm: np.ndarray) -> float:
@@ -231,7 +213,9 @@ class _Search:
             return (INF if lb >= _FORBID else lb), None
         perm = np.empty(m, dtype=np.int64)
         perm[r] = c
-        self.best, self.best_perm = self.improve(perm)
+        self.best, self.best_perm = self.full_cost(perm), perm
+        if self.best > lb + 1e-9:
+            self.best, self.best_perm = self.improve(perm)
         if self.best > lb + 1e-9:
             self.descend(0, self.const, [], np.zeros(m, dtype=bool), lb)
         if self.best >= self.threshold:
@@ -281,18 +265,19 @@ class _Search:
         return float(mat[r, c].sum())
 
 
-def exact_state_distance(a: Encoded, b: Encoded, threshold: float = INF) -> tuple[float, np.ndarray | None]:
+def exact_state_distance(a: Encoded, b: Encoded, threshold: float = INF,
+                         groups: np.ndarray | None = None) -> tuple[float, np.ndarray | None]:
     """Exact ``min_pi |a - pi(b)|_1`` and a minimising ``perm`` (``a``'s object i -> ``perm[i]`` of b).
 
     With a finite ``threshold`` the search stops early: a returned perm of None means only that the
     distance is at least the returned value (which is then ``>= threshold``, or inf when the
-    primitives or argument locks cannot match).
+    primitives or argument locks cannot match). ``groups`` may pass ``twin_groups(b)`` when cached.
     """
     if a.n_objects != b.n_objects:
         raise ValueError("pad both states to the same number of objects first")
     if a.label != b.label or sorted(a.lock.tolist()) != sorted(b.lock.tolist()):
         return INF, None
-    return _Search(a, b, threshold).run()
+    return _Search(a, b, threshold, groups).run()
 
 
 def naive_state_distance(a: Encoded, b: Encoded) -> tuple[float, np.ndarray | None]:
@@ -512,3 +497,123 @@ def _collect(results: list[tuple[float, dict[str, str]]], tol: float,
     hits = [(index[k], m) for k, (d, m) in enumerate(results) if d <= best + tol]
     hits.sort(key=lambda h: h[0])
     return Neighbours(best, tuple(k for k, _ in hits), tuple(m for _, m in hits))
+
+
+# ----------------------------------------------------------------------------- canonical forms
+
+_M1, _M2 = np.uint64(0xFF51AFD7ED558CCD), np.uint64(0xC4CEB9FE1A85EC53)
+_P = tuple(np.uint64(v) for v in (0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB,
+                                  0xD6E8FEB86659FD93, 0x2545F4914F6CDD1D))
+
+
+def _mix(x: np.ndarray) -> np.ndarray:
+    """A 64-bit finaliser: spreads bits so that sums of mixed values behave as multiset hashes."""
+    x = x ^ (x >> np.uint64(33))
+    x = x * _M1
+    x = x ^ (x >> np.uint64(33))
+    x = x * _M2
+    return x ^ (x >> np.uint64(33))
+
+
+def _codes(bits: np.ndarray) -> np.ndarray:
+    """Pack the last axis of a 0/1 array into integers (up to 62 bits)."""
+    if bits.shape[-1] == 0:
+        return np.zeros(bits.shape[:-1], dtype=np.int64)
+    return (bits.astype(np.int64) << np.arange(bits.shape[-1], dtype=np.int64)).sum(-1)
+
+
+def _colours(ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
+    """Colour refinement (Weisfeiler-Lehman) by hashing, vectorised over a batch of states.
+
+    The colours are functions of the isomorphism-invariant structure only, so ordering objects by
+    colour is the same for isomorphic states; hash collisions could only merge classes, never break
+    exactness, because the final key is always an actual encoding of the state.
+    """
+    n, m = ucode.shape
+    col = _mix(ucode.astype(np.uint64) + _P[0])
+    out_e = ecode.astype(np.uint64) * _P[1]
+    in_e = ecode.transpose(0, 2, 1).astype(np.uint64) * _P[2]
+    off = ~np.eye(m, dtype=bool)[None]
+    distinct = _n_distinct(col)
+    for _ in range(max(m - 1, 1)):
+        t = _mix(col[:, None, :] * _P[3] + out_e + _mix(in_e + col[:, None, :]))
+        nb = np.where(off, t, np.uint64(0)).sum(2, dtype=np.uint64)
+        col = _mix(col * _P[4] + nb)
+        now = _n_distinct(col)
+        if now == distinct:  # stable partition (refinement only splits classes)
+            break
+        distinct = now
+    return col
+
+
+def _n_distinct(col: np.ndarray) -> int:
+    srt = np.sort(col, axis=1)
+    return int((srt[:, 1:] != srt[:, :-1]).sum())
+
+
+def _twins(ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
+    """(N, M, M): objects i, j interchangeable (the transposition (i j) leaves the state unchanged)."""
+    m = ucode.shape[1]
+    row = (ecode[:, :, None, :] != ecode[:, None, :, :]).sum(-1)          # over k, including k in {i, j}
+    col = (ecode.transpose(0, 2, 1)[:, :, None, :] != ecode.transpose(0, 2, 1)[:, None, :, :]).sum(-1)
+    nz = ecode != 0
+    # remove the k = i and k = j terms: E[i,i]=E[j,j]=0, so they count E[j,i]!=0 and E[i,j]!=0
+    row = row - nz.transpose(0, 2, 1) - nz
+    col = col - nz - nz.transpose(0, 2, 1)
+    same = (ucode[:, :, None] == ucode[:, None, :]) & (row == 0) & (col == 0) & (ecode == ecode.transpose(0, 2, 1))
+    return same | np.eye(m, dtype=bool)[None]
+
+
+def _encode_rows(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.ndarray:
+    n = unary.shape[0]
+    return np.concatenate([lock.reshape(n, -1).astype(np.uint8), unary.reshape(n, -1).astype(np.uint8),
+                           binary.reshape(n, -1).astype(np.uint8)], axis=1)
+
+
+def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
+                    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Canonical encodings of a batch of states: equal rows if and only if the states are isomorphic.
+
+    ``unary`` (N, M, K), ``binary`` (N, M, M, L) with zero diagonals, ``lock`` (N, M) small ints
+    (action argument masks; objects match only objects with the same lock). Returns ``codes``
+    (N, W) uint8 and ``perms`` (N, M): canonical position ``c`` of state ``n`` holds its object
+    ``perms[n, c]``. Objects are ordered by refined colour; when every colour class consists of
+    interchangeable objects that order is canonical already; otherwise (rare) the lexicographically
+    smallest encoding over all colour-respecting orders is taken (memoised in ``cache``, keyed by
+    the state's own encoding, when given).
+    """
+    n, m = unary.shape[:2]
+    ucode = _codes(unary) + (lock.astype(np.int64) << unary.shape[2])
+    ecode = _codes(binary)
+    col = _colours(ucode, ecode)
+    perms = np.argsort(col, axis=1, kind="stable")
+    if m > 1:
+        same = (col[:, :, None] == col[:, None, :])
+        bad = np.flatnonzero((same & ~_twins(ucode, ecode)).any(axis=(1, 2)))
+    else:
+        bad = np.zeros(0, dtype=np.int64)
+    idx = np.arange(n)[:, None]
+    codes = _encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
+                         lock[idx, perms])
+    for k in bad:
+        raw = _encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
+        hit = cache.get(raw) if cache is not None else None
+        if hit is None:
+            hit = _lexmin_encoding(unary[k], binary[k], lock[k], col[k])
+            if cache is not None:
+                if len(cache) > 100_000:
+                    cache.clear()
+                cache[raw] = hit
+        codes[k], perms[k] = hit
+    return codes, perms
+
+
+def _lexmin_encoding(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
+                     col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest encoding over all orders that keep objects sorted by colour."""
+    classes = [np.flatnonzero(col == c) for c in np.unique(col)]  # ascending colour, as argsort
+    orders = np.array([np.concatenate(parts) for parts in
+                       itertools.product(*(list(itertools.permutations(c)) for c in classes))], dtype=np.int64)
+    rows = _encode_rows(unary[orders], binary[orders[:, :, None], orders[:, None, :]], lock[orders])
+    best = np.lexsort(rows.T[::-1])[0]
+    return rows[best], orders[best]
