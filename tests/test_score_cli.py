@@ -1,0 +1,92 @@
+"""``groundsym score``: held-out log-likelihood per transition and rule coverage, and bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from examples.rule_recovery import KNOWN, simulate
+from groundsym.cli import main
+from groundsym.logic import Atom
+from groundsym.modeldir import learn_symbolic_model, load_model
+from groundsym.rules.io import read_rules
+from groundsym.symbolic_traces import write_symbolic_traces
+
+
+@pytest.fixture(scope="module")
+def learned(tmp_path_factory):
+    d = tmp_path_factory.mktemp("score")
+    true, meta = read_rules(KNOWN["blocks"])
+    train = simulate(true, meta, 300, np.random.default_rng(0))
+    test = simulate(true, meta, 300, np.random.default_rng(1))
+    learn_symbolic_model(train, d / "model", seed=0, argv=["groundsym", "learn"], progress=False)
+    write_symbolic_traces(d / "test.json", test)
+    return d, test
+
+
+def test_json_report_matches_the_model_semantics(learned, capsys):
+    d, test = learned
+    assert main(["score", str(d / "model"), str(d / "test.json"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    rs = load_model(d / "model").rules
+    logs = [math.log(max(rs.likelihood(s, a, s2, tr.objects), rs.p_min))
+            for tr in test.traces for s, a, s2 in tr.transitions()]
+    assert doc["transitions"] == len(logs) == test.n_transitions
+    assert doc["mean_log_likelihood"] == pytest.approx(sum(logs) / len(logs), rel=1e-12)
+    assert doc["impossible"] == sum(rs.likelihood(s, a, s2, tr.objects) == 0
+                                    for tr in test.traces for s, a, s2 in tr.transitions())
+    assert len(doc["rules"]) == len(rs.rules)
+    assert sum(r["covers"] for r in doc["rules"]) + doc["default_covered"] == doc["transitions"]
+    assert all(set(r) >= {"rule", "action", "context", "covers"} for r in doc["rules"])
+
+
+def test_text_report_and_model_directory_files(learned, capsys):
+    d, _ = learned
+    assert main(["score", str(d / "model"), str(d / "test.json")]) == 0
+    out = capsys.readouterr().out
+    assert "mean log-likelihood" in out and "rule 1:" in out
+    names = sorted(p.name for p in (d / "model").iterdir())
+    assert names == ["reward.json", "rules.json", "rules.txt", "symbolic-traces.json"]
+    m = load_model(d / "model")
+    assert m.symbols is None and m.traces is None and m.symbolic_traces.n_transitions == 300
+    prov = json.loads((d / "model" / "rules.json").read_text())["provenance"]
+    assert prov["seed"] == 0 and len(prov["data_sha256"]) == 64 and prov["command"] == "groundsym learn"
+
+
+def test_a_transition_the_model_calls_impossible_is_priced_with_p_min(tmp_path, capsys):
+    true, meta = read_rules(KNOWN["blocks"])        # the true domain has no noise: some data is impossible
+    data = simulate(true, meta, 40, np.random.default_rng(0))
+    tr = data.traces[0]
+    tr.states[1] = tr.states[0] | {Atom("on", tr.objects[:2])}   # appears from nowhere
+    write_symbolic_traces(tmp_path / "d.json", data)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "rules.json").write_text((KNOWN["blocks"]).read_text())
+    assert main(["score", str(tmp_path / "m"), str(tmp_path / "d.json"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["impossible"] >= 1 and math.isfinite(doc["mean_log_likelihood"])
+
+
+@pytest.mark.parametrize("case", ["no-model", "bad-rules", "bad-data"])
+def test_bad_input_gives_one_line_and_status_2(learned, tmp_path, capsys, case):
+    d, _ = learned
+    model, data = str(d / "model"), str(d / "test.json")
+    if case == "no-model":
+        model = str(tmp_path / "nothing")
+    elif case == "bad-rules":
+        (tmp_path / "m").mkdir()
+        doc = json.loads((d / "model" / "rules.json").read_text())
+        doc["rules"][0]["noise"] = 0.9
+        (tmp_path / "m" / "rules.json").write_text(json.dumps(doc))
+        model = str(tmp_path / "m")
+    else:
+        (tmp_path / "t.json").write_text('{"schema": "groundsym.symbolic-traces/1", "predicates": {}}')
+        data = str(tmp_path / "t.json")
+    assert main(["score", model, data]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    want = {"no-model": "nothing: no such", "bad-rules": "rules.json: rules[0].outcomes: probabilities",
+            "bad-data": "t.json: primitives: missing"}[case]
+    assert want in err
