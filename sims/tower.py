@@ -39,13 +39,22 @@ CONTACT_UP = 0.7                   # a contact whose normal has z above this is 
 
 OPTIONS: tuple[SimOption, ...] = (
     SimOption("cubes", int, 7, "number of cubes"),
-    SimOption("big", int, 3, "how many of the cubes are big"),
+    SimOption("big", int, None, "how many of the cubes are big (default: 3/7 of them, rounded: 3 of 7)"),
     SimOption("balls", int, 0, "number of balls"),
     SimOption("noise", float, 0.01, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target"),
     SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
     SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
     SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
 )
+
+
+def resolve_options(given: dict[str, Any]) -> dict[str, Any]:
+    """Typed, checked options with defaults filled in (``big`` follows ``cubes`` unless given)."""
+    opts = parse_options(TowerSim.name, OPTIONS, given)
+    if opts["big"] is None:
+        opts["big"] = int(round(opts["cubes"] * 3 / 7))
+    _check(opts)
+    return opts
 
 
 def _check(opts: dict[str, Any]) -> None:
@@ -85,8 +94,7 @@ class TowerSim:
     gamma = GAMMA
 
     def __init__(self, **options: Any) -> None:
-        self.options = parse_options(self.name, OPTIONS, options)
-        _check(self.options)
+        self.options = resolve_options(options)
         self.objects = tuple(f"o{i + 1}" for i in range(self.options["cubes"] + self.options["balls"]))
         self.world = TowerWorld()
         self.rng = np.random.default_rng(0)
@@ -275,6 +283,4 @@ def optimal_episode_value(options: dict[str, Any] | None = None) -> float:
     """The best episode value of the deterministic cell (see :mod:`sims.tower_optimum`)."""
     from .tower_optimum import best_plan
 
-    opts = parse_options(TowerSim.name, OPTIONS, options or {})
-    _check(opts)
-    return best_plan(opts, GAMMA, EPISODE_LENGTH).value
+    return best_plan(resolve_options(options or {}), GAMMA, EPISODE_LENGTH).value

@@ -1,0 +1,252 @@
+"""The tower cell against ground truth: physics of grasping and stacking, features, reward,
+determinism, the optimum search (against a brute-force reference) and the replay of its plan."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from groundsym.collect import collect_trace, trace_seeds
+from groundsym.errors import UserError
+from groundsym.logic import Atom
+from groundsym.traces import read_traces
+from sims.tower import GAMMA, MIN_GAP, REGION_X, REGION_Y, TowerSim, optimal_episode_value
+from sims.tower_optimum import best_plan, ground_plan
+from sims.tower_world import pb
+
+from conftest import DATA
+
+
+def A(pred: str, *args: str) -> Atom:
+    return Atom(pred, args)
+
+
+@pytest.fixture(scope="module")
+def exact():
+    """A noise-free cell (the deterministic world)."""
+    sim = TowerSim(noise=0)
+    yield sim
+    sim.close()
+
+
+def cubes_by_size(sim: TowerSim) -> tuple[list[str], list[str]]:
+    big = [o for o, (shape, size) in zip(sim.objects, sim.kinds) if shape == "cube" and size == sim.options["big_size"]]
+    small = [o for o, (shape, size) in zip(sim.objects, sim.kinds) if shape == "cube" and size != sim.options["big_size"]]
+    return big, small
+
+
+def test_start_state_all_on_table_apart_and_reachable(exact):
+    s = exact.reset(11)
+    assert s.objects == tuple(f"o{i}" for i in range(1, 8))
+    assert s.reward == 0.0
+    ids = s.objects
+    assert {a for a in s.truth if a.predicate in ("ontable", "clear")} == \
+        {A(p, o) for p in ("ontable", "clear") for o in ids}
+    assert not [a for a in s.truth if a.predicate in ("on", "above", "inhand")]
+    big, small = cubes_by_size(exact)
+    assert len(big) == 3 and len(small) == 4
+    assert {a.args[0] for a in s.truth if a.predicate == "big"} == set(big)
+    xy = s.features[:, :2]
+    assert np.all((xy[:, 0] >= REGION_X[0]) & (xy[:, 0] <= REGION_X[1]))
+    assert np.all((xy[:, 1] >= REGION_Y[0]) & (xy[:, 1] <= REGION_Y[1]))
+    d = np.linalg.norm(xy[:, None] - xy[None], axis=2) + np.eye(7)
+    assert d.min() >= MIN_GAP - 0.002            # settling may nudge them a hair
+    np.testing.assert_allclose(s.features[:, 2], s.features[:, 3] / 2, atol=0.001)  # resting on the table
+
+
+def test_features_are_the_simulator_poses(exact):
+    exact.reset(3)
+    s = exact.step(A("closeHandAround", "o2"))
+    for k, body in enumerate(exact.world.bodies):
+        pos, _ = pb.getBasePositionAndOrientation(body.uid, physicsClientId=exact.world.client)
+        np.testing.assert_array_equal(s.features[k, :3], pos)
+        assert s.features[k, 3] == body.size
+
+
+def test_grasp_stack_and_covered_cube(exact):
+    """Grasp a free cube (inhand), open it over another (on, above, reward), then the covered
+    cube cannot be grasped and the tower stands."""
+    s = exact.reset(5)
+    big, small = cubes_by_size(exact)
+    top, bottom = small[0], big[0]
+    s = exact.step(A("closeHandAround", top))
+    assert A("inhand", top) in s.truth and A("ontable", top) not in s.truth
+    assert s.features[s.index(top), 2] > 0.3                     # lifted to the home pose
+    assert s.reward == 0.0                                        # a held cube counts 0
+    s = exact.step(A("openHandOver", bottom))
+    assert {A("on", top, bottom), A("above", top, bottom), A("clear", top)} <= s.truth
+    assert A("clear", bottom) not in s.truth and A("inhand", top) not in s.truth
+    # reward: mean over the 7 cubes of the bottom heights; only `top` is off the table, by one big edge
+    assert s.reward == pytest.approx(exact.options["big_size"] / 7, abs=0.0005)
+    i, j = s.index(top), s.index(bottom)
+    np.testing.assert_allclose(s.features[i, :2], s.features[j, :2], atol=0.01)
+    s = exact.step(A("closeHandAround", bottom))
+    assert A("inhand", bottom) not in s.truth
+    assert A("on", top, bottom) in s.truth
+
+
+def test_stacking_three_gives_above_through_the_tower(exact):
+    exact.reset(8)
+    big, small = cubes_by_size(exact)
+    for held, target in ((big[1], big[0]), (small[0], big[1])):
+        exact.step(A("closeHandAround", held))
+        s = exact.step(A("openHandOver", target))
+    assert {A("on", big[1], big[0]), A("on", small[0], big[1]), A("above", small[0], big[0])} <= s.truth
+    assert A("on", small[0], big[0]) not in s.truth
+    assert s.reward == pytest.approx((big_h := exact.options["big_size"]) * 3 / 7, abs=0.001) and big_h
+
+
+def test_balls_and_options_from_strings():
+    with TowerSim(cubes="2", balls="2", big="1", noise="0") as sim:
+        s = sim.reset(4)
+        assert s.features.shape == (4, 4)
+        balls = {a.args[0] for a in s.truth if a.predicate == "ball"}
+        assert len(balls) == 2
+        assert sorted(s.features[:, 3]) == [0.04, 0.045, 0.045, 0.05]
+        assert all(s.features[s.index(b), 3] == 0.045 for b in balls)
+        assert len(sim.actions()) == 8 and set(sim.actions()) == {
+            A(p, o) for p in ("closeHandAround", "openHandOver") for o in s.objects}
+
+
+@pytest.mark.parametrize("opts, word", [({"cubes": -1}, "cubes"), ({"big": 8}, "big"),
+                                        ({"noise": "lots"}, "noise"), ({"ball_size": 0.04}, "ball_size"),
+                                        ({"colour": "red"}, "colour"), ({"cubes": 9, "balls": 3}, "cubes")])
+def test_bad_options_are_user_errors(opts, word):
+    with pytest.raises(UserError, match=word):
+        TowerSim(**opts)
+
+
+def test_step_rejects_foreign_actions(exact):
+    exact.reset(0)
+    with pytest.raises(ValueError):
+        exact.step(A("push", "o1"))
+    with pytest.raises(ValueError):
+        exact.step(A("closeHandAround", "o9"))
+
+
+def test_same_seed_same_trace_bit_for_bit():
+    """Two worlds with different histories replay seed 21 identically, with motor noise on."""
+    a, b = TowerSim(), TowerSim()
+    b.reset(99)
+    b.step(A("closeHandAround", "o1"))
+    acts = [A("closeHandAround", "o3"), A("openHandOver", "o5"), A("closeHandAround", "o1"), A("openHandOver", "o3")]
+    sa, sb = [a.reset(21)], [b.reset(21)]
+    for act in acts:
+        sa.append(a.step(act))
+        sb.append(b.step(act))
+    for x, y in zip(sa, sb):
+        assert np.array_equal(x.features, y.features) and x.truth == y.truth and x.reward == y.reward
+    a.close()
+    b.close()
+
+
+def test_committed_traces_regenerate_bit_for_bit():
+    """tests/data/tower_small.json (made by `groundsym collect` in another process) is reproduced."""
+    ds = read_traces(DATA / "tower_small.json")
+    meta = ds.meta
+    with TowerSim(**meta["options"]) as sim:
+        seed, rng = trace_seeds(meta["seed"], meta["traces"])[0]
+        trace = collect_trace(sim, meta["length"], seed, rng)
+    want = ds.traces[0]
+    assert trace.actions == want.actions
+    for x, y in zip(trace.scenes, want.scenes):
+        assert np.array_equal(x.features, y.features) and x.truth == y.truth and x.reward == y.reward
+
+
+# ---------------------------------------------------------------------- the optimum
+
+def brute_force_value(sizes: list[float], gamma: float, length: int) -> float:
+    """Reference: every primitive sequence on *named* cubes, simulated as blocks world with sizes."""
+    n = len(sizes)
+    acts = [(p, k) for p in ("grasp", "open") for k in range(n)]
+
+    def run(seq):
+        below = [None] * n            # what each cube stands on (None: the table)
+        hand, value = None, 0.0
+        for t, (p, k) in enumerate(seq):
+            covered = any(b == k for b in below)
+            if p == "grasp" and hand is None and not covered:
+                hand, below[k] = k, None
+            elif p == "open" and hand is not None:
+                if k != hand and not covered:
+                    below[hand] = k
+                hand = None
+            heights = []
+            for c in range(n):
+                h, b = 0.0, below[c]
+                while b is not None:
+                    h += sizes[b]
+                    b = below[b]
+                heights.append(0.0 if c == hand else h)
+            value += gamma ** t * np.mean(heights)
+        return value
+
+    return max(run(seq) for seq in itertools.product(acts, repeat=length))
+
+
+@pytest.mark.parametrize("cubes, big, length", [(3, 1, 5), (4, 2, 4), (2, 1, 6)])
+def test_optimum_matches_brute_force(cubes, big, length):
+    opts = {"cubes": cubes, "big": big, "small_size": 0.04, "big_size": 0.05}
+    sizes = [0.05] * big + [0.04] * (cubes - big)
+    assert best_plan(opts, GAMMA, length).value == pytest.approx(brute_force_value(sizes, GAMMA, length), abs=1e-12)
+
+
+def test_optimum_by_hand_two_cubes():
+    # grasp the small cube, put it on the big one, then nothing beats keeping it there
+    want = 0.05 / 2 * sum(GAMMA ** (t - 1) for t in range(2, 11))
+    assert optimal_episode_value({"cubes": 2, "big": 1}) == pytest.approx(want, abs=1e-12)
+
+
+def test_optimal_plan_replays_in_physics(exact):
+    """The search's plan, run by the arm in the noise-free cell, earns the value it promised."""
+    exact.reset(0)
+    plan = best_plan(exact.options, GAMMA, 10)
+    sizes = {o: size for o, (shape, size) in zip(exact.objects, exact.kinds) if shape == "cube"}
+    value = 0.0
+    for t, (prim, obj) in enumerate(ground_plan(plan, sizes)):
+        s = exact.step(A(prim, obj))
+        assert s.reward == pytest.approx(plan.rewards[t], abs=0.0005)
+        value += GAMMA ** t * s.reward
+    assert value == pytest.approx(plan.value, rel=0.005)
+
+
+def stack_trials(n: int, pick):
+    """For seeds 0..n-1 at default noise: grasp cube a, open over cube b (``pick(sim, seed)``
+    chooses them); yields the sim and whether the grasp and the stacking held."""
+    with TowerSim() as sim:
+        for seed in range(n):
+            sim.reset(seed)
+            a, b = pick(sim, seed)
+            grasped = A("inhand", a) in sim.step(A("closeHandAround", a)).truth
+            yield sim, a, b, grasped, A("on", a, b) in sim.step(A("openHandOver", b)).truth
+
+
+def any_two_cubes(sim: TowerSim, seed: int) -> tuple[str, str]:
+    cubes = [o for o, (shape, _) in zip(sim.objects, sim.kinds) if shape == "cube"]
+    a, b = np.random.default_rng(seed + 100).choice(cubes, 2, replace=False)
+    return str(a), str(b)
+
+
+@pytest.mark.slow
+def test_stacking_succeeds_in_most_trials_at_default_noise():
+    """Grasp a free cube, open over another free cube: on(held, other) in most of 40 trials."""
+    results = [(g, ok) for _, _, _, g, ok in stack_trials(40, any_two_cubes)]
+    grasped, stacked = sum(g for g, _ in results), sum(ok for _, ok in results)
+    print(f"stacking at noise 0.01: {stacked}/40 on(held, other), {grasped}/40 grasps")
+    assert stacked > 20 and grasped > 20
+
+
+@pytest.mark.slow
+def test_covered_cubes_are_never_grasped_at_default_noise():
+    trials = standing = 0
+    for sim, top, bottom, _, stacked in stack_trials(20, lambda sim, _: (cubes_by_size(sim)[1][0],
+                                                                         cubes_by_size(sim)[0][0])):
+        if stacked:
+            trials += 1
+            s = sim.step(A("closeHandAround", bottom))
+            assert A("inhand", bottom) not in s.truth
+            standing += A("on", top, bottom) in s.truth     # the hand may knock the top cube off
+    print(f"covered grasps at noise 0.01: 0/{trials} succeeded, {standing}/{trials} towers still standing")
+    assert trials >= 10
