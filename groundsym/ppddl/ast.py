@@ -13,7 +13,8 @@ node into nested lists, and :func:`layout` prints those lists; every node's ``st
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Union
 
@@ -115,7 +116,7 @@ class Predicate:
 
     name: str
     params: tuple[Typed, ...] = ()
-    comment: str = ""
+    comment: str = field(default="", compare=False)   # printed, not parsed back
 
     @property
     def arity(self) -> int:
@@ -128,7 +129,7 @@ class Action:
     parameters: tuple[Typed, ...] = ()
     precondition: Formula = TRUE
     effect: Effect = NO_EFFECT
-    comment: str = ""
+    comment: str = field(default="", compare=False)   # printed, not parsed back
 
 
 @dataclass(frozen=True)
@@ -139,7 +140,7 @@ class Domain:
     constants: tuple[Typed, ...] = ()
     predicates: tuple[Predicate, ...] = ()
     actions: tuple[Action, ...] = ()
-    comment: str = ""
+    comment: str = field(default="", compare=False)   # printed, not parsed back
     functions: tuple[Predicate, ...] = ()
 
     def __post_init__(self) -> None:
@@ -148,7 +149,7 @@ class Domain:
         _set(self, "types", tuple(sorted(self.types, key=lambda t: (t.type, t.name))))
         _set(self, "constants", tuple(sorted(self.constants, key=lambda t: (t.type, t.name))))
         _set(self, "predicates", tuple(sorted(self.predicates, key=lambda p: p.name)))
-        _set(self, "actions", tuple(sorted(self.actions, key=lambda a: a.name)))
+        _set(self, "actions", tuple(sorted(self.actions, key=lambda a: _natural(a.name))))
         _set(self, "functions", tuple(sorted(self.functions, key=lambda p: p.name)))
 
     def predicate(self, name: str) -> Predicate | None:
@@ -171,7 +172,7 @@ class Problem:
     goal_reward: Fraction | None = None
     metric: tuple[str, str] | None = None   # ("maximize", "reward")
     requirements: tuple[str, ...] = ()
-    comment: str = ""
+    comment: str = field(default="", compare=False)   # printed, not parsed back
 
     def __post_init__(self) -> None:
         _set(self, "requirements", tuple(sorted(set(self.requirements))))
@@ -180,6 +181,11 @@ class Problem:
 
     def __str__(self) -> str:
         return layout(to_sexp(self)) + "\n"
+
+
+def _natural(name: str) -> tuple:
+    """Sort key that puts ``stack_r2`` before ``stack_r10``."""
+    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", name))
 
 
 def _set(obj: object, name: str, value: object) -> None:
@@ -296,7 +302,7 @@ def _domain_sexp(d: Domain) -> list:
     out.append(preds)
     if d.functions:
         out.append([":functions", *([f.name, *typed_list(f.params)] for f in sorted(d.functions, key=lambda f: f.name))])
-    for a in sorted(d.actions, key=lambda a: a.name):
+    for a in d.actions:
         act: list = [":action", a.name, *_comment_lines(a.comment), ":parameters", typed_list(a.parameters)]
         if a.precondition != TRUE:
             act += [":precondition", to_sexp(a.precondition)]

@@ -270,12 +270,25 @@ def _is_noise_guard(f: Formula) -> bool:
     return isinstance(f, Not) and f.arg == Atom(NOISE_PREDICATE)
 
 
+def _reward_only(e: Effect) -> bool:
+    """Reward effects, possibly under ``when``/``forall`` (the exported reward model)."""
+    if isinstance(e, RewardEffect):
+        return True
+    if isinstance(e, (When, ForallEffect)):
+        return _reward_only(e.effect)
+    return isinstance(e, AndEffect) and all(_reward_only(x) for x in e.effects)
+
+
+def _flat_effects(e: Effect) -> list[Effect]:
+    return [y for x in e.effects for y in _flat_effects(x)] if isinstance(e, AndEffect) else [e]
+
+
 def _literals_of(e: Effect, where: str) -> list[Literal]:
     if isinstance(e, Literal):
         return [e]
     if isinstance(e, AndEffect):
         return [l for x in e.effects for l in _literals_of(x, where)]
-    if isinstance(e, RewardEffect):
+    if _reward_only(e):
         return []
     raise UserError(f"{where}: effect is outside the rule subset (only literals, and, one probabilistic)")
 
@@ -299,8 +312,7 @@ def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
             raise UserError(f"{where}: precondition is outside the rule subset (a conjunction of literals)")
     fixed: list[Literal] = []
     prob_blocks: list[Probabilistic] = []
-    effects = action.effect.effects if isinstance(action.effect, AndEffect) else (action.effect,)
-    for e in effects:
+    for e in _flat_effects(action.effect):
         if isinstance(e, Probabilistic):
             prob_blocks.append(e)
         else:

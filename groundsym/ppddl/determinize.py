@@ -1,0 +1,159 @@
+"""Determinise a PPDDL domain for classical planners (ALGORITHMS.md C.4), and solve it.
+
+* ``all-outcomes`` (FF-Replan's FFR-a): one action ``<name>_o<i>`` per outcome of the action's
+  effect (the product of its ``probabilistic`` blocks); the planner picks outcomes
+  optimistically. Outcomes that change nothing are left out: a classical planner never needs them.
+* ``most-likely`` (FFR-s): each action keeps only its most probable outcome.
+
+Reward effects, ``:goal-reward`` and ``:metric`` have no place in plain PDDL and are dropped.
+A ``probabilistic`` under ``forall`` is expanded as if all objects drew the same outcome, exact
+when at most one object meets the condition (the tower cell's one held object), optimistic else.
+
+:func:`solve` runs a classical planner through unified-planning (Fast Downward by default) and
+refuses, in one line, a planner that cannot take the domain's features.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import replace
+from fractions import Fraction
+from pathlib import Path
+
+from ..errors import UserError
+from ..logic import Atom, Literal
+from .ast import (NO_EFFECT, Action, AndEffect, Domain, Effect, ForallEffect, Probabilistic, Problem, RewardEffect,
+                  When)
+from .convert import requirements
+
+MODES = ("all-outcomes", "most-likely")
+_PROBABILISTIC_FLAGS = {":probabilistic-effects", ":rewards", ":mdp"}
+
+
+def outcomes(e: Effect) -> list[tuple[Fraction, Effect]]:
+    """The effect's deterministic alternatives with their probabilities (they sum to 1)."""
+    if isinstance(e, Literal):
+        return [(Fraction(1), e)]
+    if isinstance(e, RewardEffect):
+        return [(Fraction(1), NO_EFFECT)]
+    if isinstance(e, AndEffect):
+        out: list[tuple[Fraction, list[Effect]]] = [(Fraction(1), [])]
+        for part in e.effects:
+            out = [(p * q, acc + [x]) for p, acc in out for q, x in outcomes(part)]
+        return [(p, _and(parts)) for p, parts in out]
+    if isinstance(e, Probabilistic):
+        res = [(p * q, x) for p, sub in e.branches for q, x in outcomes(sub)]
+        if e.rest > 0:
+            res.append((e.rest, NO_EFFECT))
+        return res
+    if isinstance(e, When):
+        return [(p, When(e.condition, x) if not _empty(x) else NO_EFFECT) for p, x in outcomes(e.effect)]
+    if isinstance(e, ForallEffect):
+        return [(p, ForallEffect(e.params, x) if not _empty(x) else NO_EFFECT) for p, x in outcomes(e.effect)]
+    raise TypeError(f"not an effect: {e!r}")
+
+
+def _empty(e: Effect) -> bool:
+    return isinstance(e, AndEffect) and all(_empty(x) for x in e.effects)
+
+
+def _and(parts: list[Effect]) -> Effect:
+    flat: list[Effect] = []
+    for x in parts:
+        if isinstance(x, AndEffect):
+            flat += [y for y in x.effects if not _empty(y)]
+        elif not _empty(x):
+            flat.append(x)
+    return flat[0] if len(flat) == 1 else AndEffect(tuple(flat))
+
+
+def _merged(e: Effect) -> list[tuple[Fraction, Effect]]:
+    """Outcomes with equal effects merged, in first-seen order."""
+    table: dict[Effect, Fraction] = {}
+    for p, x in outcomes(e):
+        table[x] = table.get(x, Fraction(0)) + p
+    return list((p, x) for x, p in table.items())
+
+
+def determinize_action(a: Action, mode: str) -> list[Action]:
+    alts = _merged(a.effect)
+    if mode == "most-likely":
+        p, best = max(alts, key=lambda px: px[0])  # max keeps the first of equal ones
+        return [replace(a, effect=best, comment=f"most likely outcome, p = {float(p):.4g}" if p < 1 else "")]
+    useful = [(p, x) for p, x in alts if p > 0 and not _empty(x)]
+    if len(alts) == 1:
+        return [replace(a, effect=alts[0][1])]
+    return [replace(a, name=f"{a.name}_o{i}", effect=x, comment=f"outcome {i}, p = {float(p):.4g}")
+            for i, (p, x) in enumerate(useful, 1)]
+
+
+def determinize(domain: Domain, problem: Problem | None, mode: str = "all-outcomes") -> tuple[Domain, Problem | None]:
+    """Plain PDDL versions of ``domain`` and ``problem`` (see the module docstring)."""
+    if mode not in MODES:
+        raise UserError(f"--determinize: expected one of {', '.join(MODES)}, got {mode!r}")
+    actions = tuple(x for a in domain.actions for x in determinize_action(a, mode))
+    plain = replace(domain, actions=actions, requirements=(),
+                    comment=f"{mode} determinisation of the PPDDL domain {domain.name}")
+    flags = set(requirements(plain)) | {":strips"}
+    plain = replace(plain, requirements=tuple(sorted(flags - _PROBABILISTIC_FLAGS)), functions=())
+    if problem is None:
+        return plain, None
+    return plain, replace(problem, goal_reward=None, metric=None,
+                          requirements=tuple(r for r in problem.requirements if r not in _PROBABILISTIC_FLAGS))
+
+
+def primitive_plan(domain: Domain, steps: list[Atom]) -> list[Atom]:
+    """The robot primitives of a plan over determinised actions: outcome suffixes and deictic
+    parameters dropped (``stack_r1_o2 a b c`` -> ``stack a b``)."""
+    from .convert import primitive_of
+
+    out = []
+    for s in steps:
+        name = s.predicate
+        base = next((a for a in domain.actions if a.name == name), None)
+        if base is None and "_o" in name:
+            base = next((a for a in domain.actions if a.name == name.rsplit("_o", 1)[0]), None)
+        if base is None:
+            raise UserError(f"plan step {s} names no action of domain {domain.name}")
+        prim, n = primitive_of(base)
+        out.append(Atom(prim, s.args[:n]))
+    return out
+
+
+def solve(domain: Domain, problem: Problem, planner: str = "fast-downward",
+          timeout: float | None = 60.0) -> list[Atom] | None:
+    """A plan (ground PPDDL action atoms of the plain domain) or None when the planner finds none.
+
+    ``domain`` and ``problem`` must be deterministic (see :func:`determinize`).
+    """
+    import unified_planning.shortcuts as ups
+    from unified_planning.io import PDDLReader
+    from unified_planning.engines import PlanGenerationResultStatus as Status
+
+    if problem.goal is None:
+        raise UserError(f"problem {problem.name}: has no goal, nothing to plan for")
+    ups.get_environment().credits_stream = None
+    with tempfile.TemporaryDirectory() as tmp:
+        dpath, ppath = Path(tmp) / "domain.pddl", Path(tmp) / "problem.pddl"
+        dpath.write_text(str(domain))
+        ppath.write_text(str(problem))
+        up_problem = PDDLReader().parse_problem(str(dpath), str(ppath))
+    factory = ups.get_environment().factory
+    if planner not in factory.engines:
+        raise UserError(f"unknown planner {planner!r} (installed: {', '.join(sorted(factory.engines))})")
+    engine_cls = factory.engine(planner)
+    if not getattr(engine_cls, "is_oneshot_planner", lambda: False)():
+        raise UserError(f"{planner!r} is not a planner (a unified-planning engine of another kind)")
+    if not engine_cls.supports(up_problem.kind):
+        missing = sorted(set(up_problem.kind.features) - set(engine_cls.supported_kind().features))
+        raise UserError(f"planner {planner!r} cannot take domain {domain.name}: it lacks "
+                        f"{', '.join(f.lower().replace('_', '-') for f in missing)}")
+    with ups.OneshotPlanner(name=planner) as engine:
+        result = engine.solve(up_problem, timeout=timeout)
+    if result.status not in (Status.SOLVED_SATISFICING, Status.SOLVED_OPTIMALLY) or result.plan is None:
+        return None
+    # unified-planning lower-cases names: give them back their case
+    names = {a.name.lower(): a.name for a in domain.actions}
+    objs = {o.name.lower(): o.name for o in (*problem.objects, *domain.constants)}
+    return [Atom(names.get(str(ai.action.name), str(ai.action.name)),
+                 tuple(objs.get(str(p), str(p)) for p in ai.actual_parameters)) for ai in result.plan.actions]
