@@ -1,139 +1,166 @@
-"""The paper's Fig. 4(b): RANDOM, CONTINUOUS-NN, SYMBOLIC-NN and PRADA bowling 2 throws per game.
+"""The paper's Fig. 4(b): RANDOM, CONTINUOUS-NN, SYMBOLIC-NN and PRADA bowling games of 2 throws.
 
-For each number of model traces n (paper: 25, 50, 100 random games of T = 2 throws), one
-``groundsym evaluate`` run plays ``runs x starts`` games (paper: 100) with each method. Each run
-learns its own symbols (1 unary + 3 binary, from ``--symbol-data`` random throws, paper: 80) and
-its own models from independent data, as the paper's protocol says. A game's score is the number
-of pins down after its 2 throws (the reward of the last scene, see docs/bowling.md), so the table
-reports that, with standard errors over games, beside the discounted value evaluate reports.
+The paper's bowling protocol (Section VI-C), which differs from ``groundsym evaluate``'s tower
+protocol in three ways, so this script runs it itself from the library's pieces:
 
-Outputs: ``OUT/n25/``, ``OUT/n50/``, ``OUT/n100/`` (each evaluate's own results.json, table and
-PNG), then ``OUT/fig4b.json``, ``OUT/fig4b.md`` and ``OUT/fig4b.png`` (grouped bars like the paper's).
+- symbols (1 unary + 3 binary) are learned from 80 random throws in *5-pin* worlds (40 games of 2
+  throws), while models and games use the full 10-pin rack;
+- model traces are n = 25, 50, 100 random *games of T = 2 throws* (not traces of 10 primitives);
+- a game scores the pins down after its 2 throws, i.e. the reward of the last scene
+  (``BowlingSim.episode_score == "final"``), not the sum of the scene rewards.
 
-    nice python examples/bowling_comparison.py --out results/bowling-fig4b --runs 20 --starts 5
-    nice python examples/bowling_comparison.py --out results/bowling-fig4b-small --runs 4 --starts 5 \\
-        --traces 25,50 --evals 5000          # a reduced version that fits a shared machine
+Per run r (independent seeds): learn symbols once; then for every n collect n random games,
+abstract them, learn NID rules and the reward model, and play ``--games`` games with each method.
+``runs x games`` games per method and n (paper: 100). Every finished run is saved in
+``OUT/runs/`` at once, and a rerun with the same options resumes from there.
+
+Outputs: ``OUT/fig4b.json`` (every game's score, means and standard errors over games),
+``OUT/fig4b.md`` (the table) and ``OUT/fig4b.png`` (grouped bars like the paper's).
+``--truth-symbols`` plans with the simulator's own relations instead (a diagnosis that separates
+planning from symbol learning).
+
+    nice python examples/bowling_comparison.py --out results/bowling-fig4b --runs 10 --games 10
+    nice python examples/bowling_comparison.py --out results/bowling-small --runs 2 --games 10 \\
+        --traces 25,50 --evals 4000        # reduced: fits a shared 2-core machine in minutes
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import io
 import json
 import math
-import shlex
 import sys
+import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
-from groundsym.cli import main as groundsym
-from groundsym.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text
+import numpy as np
+
+from groundsym.collect import collect_traces
+from groundsym.episode import SimEnv, run_episode
+from groundsym.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json
+from groundsym.modeldir import learn_symbolic_model, load_model
+from groundsym.planner import PlanningModel, make_planner
+from groundsym.progress import Progress
+from sims.bowling import BowlingSim
 
 METHODS = ("random", "continuous-nn", "symbolic-nn", "prada")
 LABELS = {"random": "RANDOM", "continuous-nn": "CONTINUOUS-NN", "symbolic-nn": "SYMBOLIC-NN", "prada": "PRADA"}
+TRUTH = ("upright", "sameColumn", "behind")
 
 
-def run(argv: list[str]) -> None:
-    print(f"\n$ groundsym {' '.join(shlex.quote(a) for a in argv)}", flush=True)
+def run_seeds(seed: int, run: int, traces: list[int]) -> dict[str, Any]:
+    """Independent seeds per run (and per n), so runs can be resumed or reordered freely."""
+    s = [int(x) for x in np.random.SeedSequence(seed, spawn_key=(run,)).generate_state(3 + 2 * len(traces))]
+    return {"symbol_data": s[0], "anneal": s[1], "games": s[2],
+            "model_data": dict(zip(traces, s[3::2])), "planners": dict(zip(traces, s[4::2]))}
+
+
+def learn_symbols(args: argparse.Namespace, seeds: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    """1 unary + 3 binary symbols from ``--symbol-games`` random games in 5-pin worlds."""
+    if args.truth_symbols:
+        from groundsym.experiment import TruthSymbols
+
+        return TruthSymbols(TRUTH, dict(BowlingSim.truth_predicates)), {"symbols": "truth"}
+    from groundsym.anneal import AnnealConfig, learn_symbol_set
+
+    with BowlingSim(pins=args.symbol_pins) as small:
+        data = collect_traces(small, args.symbol_games, 2, seeds["symbol_data"], progress=False)
+    acfg = AnnealConfig(unary=args.unary, binary=args.binary, evals=args.evals, restarts=args.restarts)
+    result = learn_symbol_set(data, acfg, seed=seeds["anneal"], workers=1, progress=False)
+    report: dict[str, Any] = {"symbols": "learned", "loss": float(result.loss), "text": repr(result.symbols)}
+    try:
+        from groundsym.grounding import grounding_report
+
+        report["grounding"] = [dict(r) for r in grounding_report(result.symbols, data)]
+    except ImportError:
+        pass
+    return result.symbols, report
+
+
+def play_run(args: argparse.Namespace, run: int, traces: list[int], sim: BowlingSim) -> dict[str, Any]:
+    """One run: symbols, then per n a model and ``--games`` games per method; final pins per game."""
     t0 = time.monotonic()
-    status = groundsym(argv)
-    if status != 0:
-        sys.exit(f"bowling_comparison: step failed with status {status}: groundsym {' '.join(argv)}")
-    print(f"  ({time.monotonic() - t0:.1f} s)", flush=True)
+    seeds = run_seeds(args.seed, run, traces)
+    symbols, report = learn_symbols(args, seeds)
+    starts = [int(x) for x in np.random.SeedSequence(seeds["games"]).generate_state(args.games)]
+    scores: dict[str, dict[str, list[float]]] = {}
+    for n in traces:
+        mdata = collect_traces(sim, n, 2, seeds["model_data"][n], progress=False)
+        sds = symbols.to_symbolic_dataset(mdata)
+        with tempfile.TemporaryDirectory() as tmp:
+            learn_symbolic_model(sds, Path(tmp), seed=seeds["planners"][n], argv=[], progress=False)
+            m = load_model(tmp)
+        pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,
+                           rules=m.rules, reward=m.reward, traces=mdata, symbolic_traces=sds, gamma=float(sim.gamma))
+        pseeds = np.random.SeedSequence(seeds["planners"][n]).generate_state(len(args.methods) * len(starts))
+        for i, method in enumerate(args.methods):
+            got = []
+            for k, start in enumerate(starts):
+                planner = make_planner(method, pm, {}, int(pseeds[i * len(starts) + k]))
+                episode = run_episode(SimEnv(sim, symbols), planner, 2, start, method)
+                got.append(float(episode.steps[-1].reward))      # pins down after the 2nd throw
+            scores.setdefault(str(n), {})[method] = got
+    return {"run": run, "scores": scores, "report": report, "seconds": time.monotonic() - t0}
 
 
-def final_scores(folder: Path, method: str) -> list[float] | None:
-    """Pins down after the last throw of every game of ``method``, from the episodes evaluate kept.
-
-    Looks for episode documents (``groundsym.episode/1``: a ``steps`` list with rewards) anywhere
-    in ``folder``; None when evaluate kept none, and the caller falls back on its summary.
-    """
-    scores = []
-    for path in sorted(folder.rglob("*.json")):
-        try:
-            doc = json.loads(path.read_text())
-        except (OSError, ValueError):
-            continue
-        for ep in _episodes(doc):
-            if ep.get("planner") == method and ep.get("steps"):
-                scores.append(float(ep["steps"][-1]["reward"]))
-    return scores or None
-
-
-def _episodes(doc: object):
-    """Every episode document nested anywhere in ``doc``."""
-    if isinstance(doc, dict):
-        if doc.get("schema") == "groundsym.episode/1":
-            yield doc
-            return
-        for v in doc.values():
-            yield from _episodes(v)
-    elif isinstance(doc, list):
-        for v in doc:
-            yield from _episodes(v)
+def fingerprint(args: argparse.Namespace) -> str:
+    """What decides the numbers; a resumed run must match it."""
+    keys = ("seed", "traces", "games", "symbol_games", "symbol_pins", "evals", "restarts", "unary", "binary",
+            "truth_symbols", "methods")
+    doc = {k: getattr(args, k) for k in keys}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=list).encode()).hexdigest()[:16]
 
 
 def mean_se(xs: list[float]) -> tuple[float, float]:
-    m = sum(xs) / len(xs)
-    var = sum((x - m) ** 2 for x in xs) / (len(xs) - 1) if len(xs) > 1 else 0.0
-    return m, math.sqrt(var / len(xs))
+    a = np.asarray(xs, dtype=float)
+    return float(a.mean()), float(a.std(ddof=1) / math.sqrt(len(a))) if len(a) > 1 else float("nan")
 
 
-def summarise(out: Path, traces: list[int]) -> dict:
+def summarise(units: list[dict[str, Any]], traces: list[int], methods: tuple[str, ...]) -> list[dict[str, Any]]:
     rows = []
     for n in traces:
-        folder = out / f"n{n}"
-        summary = json.loads((folder / "results.json").read_text())
-        by_method = {m["method"]: m for m in summary["methods"]}
-        for method in METHODS:
-            if method not in by_method:
-                continue
-            s = by_method[method]
-            scores = final_scores(folder, method)
-            row = {"model_traces": n, "method": method, "value_mean": s["mean"], "value_stderr": s["stderr"],
-                   "games": s["n"]}
-            if scores:
-                row["pins_mean"], row["pins_stderr"] = mean_se(scores)
-                row["games"] = len(scores)
-            rows.append(row)
-    return {"rows": rows}
+        for method in methods:
+            games = [s for u in units for s in u["scores"][str(n)][method]]
+            m, se = mean_se(games)
+            rows.append({"model_traces": n, "method": method, "mean": m, "stderr": se, "games": len(games)})
+    return rows
 
 
-def table(doc: dict) -> str:
-    lines = ["| model traces n | method | pins down after 2 throws | games | evaluate's value (sum of scene rewards) |",
-             "|---|---|---|---|---|"]
-    for r in doc["rows"]:
-        pins = f"{r['pins_mean']:.2f} ± {r['pins_stderr']:.2f}" if "pins_mean" in r else "(no episodes kept)"
-        lines.append(f"| {r['model_traces']} | {LABELS[r['method']]} | {pins} | {r['games']} | "
-                     f"{r['value_mean']:.2f} ± {r['value_stderr']:.2f} |")
+def table(rows: list[dict[str, Any]]) -> str:
+    lines = ["| model traces n | method | pins down after 2 throws (mean ± s.e.) | games |", "|---:|---|---:|---:|"]
+    lines += [f"| {r['model_traces']} | {LABELS.get(r['method'], r['method'])} | {r['mean']:.2f} ± {r['stderr']:.2f} | "
+              f"{r['games']} |" for r in rows]
     return "\n".join(lines) + "\n"
 
 
-def plot(doc: dict, path: Path) -> None:
+def plot(rows: list[dict[str, Any]], methods: tuple[str, ...], title: str) -> bytes:
     """Grouped bars with standard-error whiskers: one group per n, one bar per method."""
-    import io
-
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(7, 4), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    ns = sorted({r["model_traces"] for r in doc["rows"]})
-    width = 0.8 / len(METHODS)
-    for k, method in enumerate(METHODS):
-        rows = {r["model_traces"]: r for r in doc["rows"] if r["method"] == method}
-        xs = [i + (k - (len(METHODS) - 1) / 2) * width for i, n in enumerate(ns) if n in rows]
-        key = "pins" if all("pins_mean" in rows[n] for n in rows) else "value"
-        ys = [rows[n][f"{key}_mean"] for n in ns if n in rows]
-        es = [rows[n][f"{key}_stderr"] for n in ns if n in rows]
-        ax.bar(xs, ys, width, yerr=es, capsize=3, label=LABELS[method])
+    ns = sorted({r["model_traces"] for r in rows})
+    width = 0.8 / len(methods)
+    for k, method in enumerate(methods):
+        got = {r["model_traces"]: r for r in rows if r["method"] == method}
+        xs = [i + (k - (len(methods) - 1) / 2) * width for i in range(len(ns))]
+        ax.bar(xs, [got[n]["mean"] for n in ns], width, yerr=[got[n]["stderr"] for n in ns], capsize=3,
+               label=LABELS.get(method, method))
     ax.set_xticks(range(len(ns)), [f"n = {n}" for n in ns])
+    ax.set_xlabel("model traces (random games of 2 throws)")
     ax.set_ylabel("pins down after 2 throws")
-    ax.set_title("Bowling (paper Fig. 4(b)): mean ± standard error")
+    ax.set_ylim(0, 10.5)
+    ax.set_title(title, fontsize=10)
     ax.legend(loc="lower right", fontsize=8)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", bbox_inches="tight")
-    atomic_write_bytes(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def main() -> int:
@@ -141,30 +168,49 @@ def main() -> int:
     ap.add_argument("--out", default="results/bowling-fig4b", help="output folder")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--traces", default="25,50,100", help="model traces n, comma-separated (paper: 25,50,100)")
-    ap.add_argument("--runs", type=int, default=20, help="independent runs per n (each learns its own symbols)")
-    ap.add_argument("--starts", type=int, default=5, help="games per run (runs x starts = games; paper: 100)")
-    ap.add_argument("--symbol-data", type=int, default=80, help="random throws for symbol learning (paper: 80)")
-    ap.add_argument("--evals", type=int, default=20000, help="symbol-learning budget per run (loss evaluations)")
-    ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--pins", type=int, default=10, help="pins per game (paper: the full rack)")
-    ap.add_argument("--summarise-only", action="store_true", help="only rebuild the table and PNG from OUT/")
+    ap.add_argument("--runs", type=int, default=10, help="independent runs (each learns its own symbols)")
+    ap.add_argument("--games", type=int, default=10, help="games per method, n and run (runs x games: paper 100)")
+    ap.add_argument("--symbol-games", type=int, default=40, help="random games for symbols (paper: 40 = 80 throws)")
+    ap.add_argument("--symbol-pins", type=int, default=5, help="pins in the symbol-learning worlds (paper: 5)")
+    ap.add_argument("--evals", type=int, default=100000, help="symbol-learning budget per run (loss evaluations)")
+    ap.add_argument("--restarts", type=int, default=4)
+    ap.add_argument("--unary", type=int, default=1)
+    ap.add_argument("--binary", type=int, default=3)
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--truth-symbols", action="store_true",
+                    help="diagnosis: plan with the sim's upright/sameColumn/behind instead of learned symbols")
     args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    args.methods = tuple(m for m in args.methods.split(",") if m)
     traces = [int(t) for t in args.traces.split(",")]
-    if not args.summarise_only:
-        for n in traces:
-            run(["evaluate", "--sim", "bowling", "--sim-opt", f"pins={args.pins}", "--methods", ",".join(METHODS),
-                 "--symbol-data", str(args.symbol_data), "--model-traces", str(n), "--steps", "2",
-                 "--runs", str(args.runs), "--starts", str(args.starts), "--evals", str(args.evals),
-                 "--workers", str(args.workers), "--seed", str(args.seed), "-o", str(out / f"n{n}")])
-    doc = summarise(out, traces)
-    doc["setup"] = vars(args)
+    args.traces = traces
+    out = Path(args.out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    key = fingerprint(args)
+    bar = Progress(args.runs, "bowling fig4b")
+    units = []
+    with BowlingSim() as sim:
+        for r in range(args.runs):
+            path = out / "runs" / f"run{r:03d}.json"
+            unit = read_json(path) if path.exists() else None
+            if unit is None or unit.get("fingerprint") != key:
+                unit = play_run(args, r, traces, sim) | {"fingerprint": key}
+                atomic_write_json(path, unit)
+            units.append(unit)
+            rows = summarise(units, traces, args.methods)
+            bar.update(r + 1, ", ".join(f"{r_['method']}@{r_['model_traces']}: {r_['mean']:.2f}" for r_ in rows[:4]))
+    bar.close()
+    rows = summarise(units, traces, args.methods)
+    symbols = "the simulator's true relations" if args.truth_symbols else \
+        f"{args.unary} unary + {args.binary} binary learned symbols ({args.evals} evals)"
+    title = f"Bowling (paper Fig. 4(b)), {args.runs} runs x {args.games} games, {symbols}"
+    doc = {"rows": rows, "setup": {k: v for k, v in vars(args).items()}, "fingerprint": key,
+           "runs": [{"run": u["run"], "report": u["report"], "seconds": u["seconds"]} for u in units],
+           "scores": {str(u["run"]): u["scores"] for u in units}}
     atomic_write_json(out / "fig4b.json", doc)
-    atomic_write_text(out / "fig4b.md", table(doc))
-    plot(doc, out / "fig4b.png")
-    print("\n" + table(doc))
-    print(f"Outputs in {out}/: fig4b.json, fig4b.md, fig4b.png and one evaluate folder per n")
+    atomic_write_text(out / "fig4b.md", f"{title}\n\n" + table(rows))
+    atomic_write_bytes(out / "fig4b.png", plot(rows, args.methods, title))
+    print("\n" + title + "\n\n" + table(rows))
+    print(f"Outputs in {out}/: fig4b.json, fig4b.md, fig4b.png, runs/")
     return 0
 
 
