@@ -1,0 +1,344 @@
+"""Simulated annealing over a population of candidate symbol sets (paper Section VI).
+
+Each restart anneals a small population of candidate symbol sets. A step picks a candidate and
+either perturbs one of its symbols (centre moved by a fraction of its widths, widths scaled in log
+space), re-seeds it (a centre drawn from the data, with random or with its old widths), or swaps one whole symbol with
+another candidate (the paper's operator that speeds convergence). Moves are accepted by the
+Metropolis rule under a geometric temperature schedule, given per transition so it scales with
+the data. Restarts are independent (own seed from the run's seed) and run in parallel worker
+processes, in rounds of ``chunk`` evaluations; the best over all restarts wins. Everything a
+restart needs to continue is a JSON-able state, so a run can be checkpointed after every round
+and resumed to the same result, and the result never depends on the number of workers.
+
+At the end, symbols that are never or always true on the training data are pruned and the rest
+renamed ``u1, u2, ...`` / ``b1, b2, ...``.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import UserError
+from .fileio import atomic_write_json, read_json
+from .loss import Loss, LossConfig, LossData, LossTerms, active_columns
+from .symbols import Symbol, binary_truth, unary_truth
+
+CHECKPOINT_SCHEMA = "groundsym.anneal-checkpoint/1"
+
+
+@dataclass(frozen=True)
+class AnnealConfig:
+    """Search settings; ``evals`` is the total budget over all restarts (the paper used ~1e5)."""
+
+    n_unary: int = 1
+    n_binary: int = 1
+    evals: int = 100_000
+    restarts: int = 4
+    population: int = 4
+    t_start: float = 0.05        # initial temperature, nats per transition
+    t_end: float = 0.0005        # final temperature, nats per transition
+    p_reseed: float = 0.1
+    p_swap: float = 0.1
+    step: float = 0.3            # perturbation: centre moves ~ step x width, log-widths ~ step
+    width_range: tuple[float, float] = (0.05, 2.0)  # initial widths, x the data's spread
+    chunk: int = 500             # evaluations per restart between checkpoints
+
+    def __post_init__(self) -> None:
+        if self.n_unary < 0 or self.n_binary < 0 or self.n_unary + self.n_binary == 0:
+            raise ValueError("need at least one symbol to learn")
+        if self.restarts < 1 or self.population < 1 or self.evals < self.restarts:
+            raise ValueError("need at least one restart, one candidate and one evaluation per restart")
+
+    def budget(self, restart: int) -> int:
+        base, extra = divmod(self.evals, self.restarts)
+        return base + (1 if restart < extra else 0)
+
+    def to_doc(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["width_range"] = list(self.width_range)
+        return d
+
+
+# ----------------------------------------------------------------------------- candidates
+
+Candidate = list[Symbol]
+
+
+def _slot_name(arity: int, k: int) -> str:
+    return f"{'u' if arity == 1 else 'b'}{k + 1}"
+
+
+def _slots(cfg: AnnealConfig) -> list[tuple[int, str]]:
+    return [(1, _slot_name(1, k)) for k in range(cfg.n_unary)] + [(2, _slot_name(2, k)) for k in range(cfg.n_binary)]
+
+
+def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
+    """A centre drawn from the data (an object or an ordered pair of distinct objects), random widths."""
+    s = int(rng.integers(data.features.shape[0]))
+    m = data.features.shape[1]
+    if arity == 1:
+        centre, scale = data.features[s, int(rng.integers(m))], data.unary_scale
+    else:
+        i, j = rng.choice(m, 2, replace=False) if m > 1 else (0, 0)
+        centre, scale = data.pairs[s, int(i), int(j)], data.pair_scale
+    lo, hi = np.log(cfg.width_range)
+    widths = scale * np.exp(rng.uniform(lo, hi, len(scale)))
+    return Symbol(name, arity, np.array(centre, dtype=float), widths)
+
+
+def _perturb(rng: np.random.Generator, s: Symbol, cfg: AnnealConfig) -> Symbol:
+    n = len(s.centre)
+    dims = rng.random(n) < max(0.5, 1.0 / n)
+    if not dims.any():
+        dims[int(rng.integers(n))] = True
+    centre = s.centre + dims * rng.normal(0, cfg.step, n) * s.widths
+    widths = s.widths * np.exp(dims * rng.normal(0, cfg.step, n))
+    return Symbol(s.name, s.arity, centre, widths)
+
+
+# ----------------------------------------------------------------------------- one restart
+
+@dataclass
+class RestartState:
+    """All a restart needs to continue: JSON-able (see :meth:`to_doc`)."""
+
+    index: int
+    budget: int
+    done: int
+    rng_state: dict
+    population: list[Candidate]
+    losses: list[float]
+    best: Candidate
+    best_terms: LossTerms
+
+    @property
+    def finished(self) -> bool:
+        return self.done >= self.budget
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"index": self.index, "budget": self.budget, "done": self.done, "rng_state": self.rng_state,
+                "population": [[s.to_doc() for s in c] for c in self.population], "losses": self.losses,
+                "best": [s.to_doc() for s in self.best], "best_terms": self.best_terms.to_doc()}
+
+    @staticmethod
+    def from_doc(doc: dict[str, Any]) -> "RestartState":
+        def cand(c):
+            return [Symbol(s["name"], int(s["arity"]), np.array(s["centre"], float), np.array(s["widths"], float))
+                    for s in c]
+        t = doc["best_terms"]
+        return RestartState(int(doc["index"]), int(doc["budget"]), int(doc["done"]), doc["rng_state"],
+                            [cand(c) for c in doc["population"]], [float(x) for x in doc["losses"]],
+                            cand(doc["best"]),
+                            LossTerms(t["effect"], t["transition"], t["reward"], t["regulariser"]))
+
+
+def start_restart(index: int, seed: int, loss: Loss, cfg: AnnealConfig) -> RestartState:
+    """A fresh restart: its own generator (spawned from the run's seed), a random population."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(cfg.restarts)[index])
+    pop, losses = [], []
+    best, best_terms = None, None
+    for _ in range(cfg.population):
+        cand = [_random_symbol(rng, a, n, loss.data, cfg) for a, n in _slots(cfg)]
+        terms = loss(cand)
+        pop.append(cand)
+        losses.append(terms.total)
+        if best_terms is None or terms.total < best_terms.total:
+            best, best_terms = cand, terms
+    return RestartState(index, cfg.budget(index), cfg.population, rng.bit_generator.state, pop, losses,
+                        best, best_terms)
+
+
+def temperature(cfg: AnnealConfig, done: int, budget: int, n_transitions: int) -> float:
+    frac = min(done / max(budget, 1), 1.0)
+    return n_transitions * cfg.t_start * (cfg.t_end / cfg.t_start) ** frac
+
+
+def advance(state: RestartState, loss: Loss, cfg: AnnealConfig, n_evals: int) -> RestartState:
+    """Run up to ``n_evals`` more evaluations of one restart (deterministic given the state)."""
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state.rng_state
+    pop = [list(c) for c in state.population]
+    losses = list(state.losses)
+    best, best_terms = state.best, state.best_terms
+    done, stop = state.done, min(state.budget, state.done + n_evals)
+    n_tr = loss.data.n_transitions
+    slots = _slots(cfg)
+    while done < stop:
+        temp = temperature(cfg, done, state.budget, n_tr)
+        c = int(rng.integers(len(pop)))
+        slot = int(rng.integers(len(slots)))
+        move = rng.random()
+        if move < cfg.p_swap and len(pop) > 1 and done + 2 <= stop:
+            other = int((c + 1 + rng.integers(len(pop) - 1)) % len(pop))
+            a, b = list(pop[c]), list(pop[other])
+            a[slot], b[slot] = pop[other][slot], pop[c][slot]
+            ta, tb = loss(a), loss(b)
+            done += 2
+            delta = ta.total + tb.total - losses[c] - losses[other]
+            if delta <= 0 or rng.random() < math.exp(-delta / temp):
+                pop[c], pop[other], losses[c], losses[other] = a, b, ta.total, tb.total
+                for cand, t in ((a, ta), (b, tb)):
+                    if t.total < best_terms.total:
+                        best, best_terms = cand, t
+            continue
+        cand = list(pop[c])
+        arity, name = slots[slot]
+        if move < cfg.p_swap + cfg.p_reseed:
+            fresh = _random_symbol(rng, arity, name, loss.data, cfg)
+            if rng.random() < 0.5:  # a new centre from the data, the widths kept
+                fresh = Symbol(name, arity, fresh.centre, cand[slot].widths)
+            cand[slot] = fresh
+        else:
+            cand[slot] = _perturb(rng, cand[slot], cfg)
+        terms = loss(cand)
+        done += 1
+        delta = terms.total - losses[c]
+        if delta <= 0 or rng.random() < math.exp(-delta / temp):
+            pop[c], losses[c] = cand, terms.total
+            if terms.total < best_terms.total:
+                best, best_terms = cand, terms
+    return RestartState(state.index, state.budget, done, rng.bit_generator.state, pop, losses, best, best_terms)
+
+
+# ----------------------------------------------------------------------------- parallel rounds
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> None:
+    _WORKER["loss"] = Loss(data, loss_cfg)
+    _WORKER["cfg"] = cfg
+
+
+def _work(job: tuple[str, Any]) -> RestartState:
+    kind, arg = job
+    loss, cfg = _WORKER["loss"], _WORKER["cfg"]
+    if kind == "start":
+        index, seed = arg
+        return start_restart(index, seed, loss, cfg)
+    return advance(arg, loss, cfg, cfg.chunk)
+
+
+@dataclass(frozen=True)
+class AnnealResult:
+    symbols: list[Symbol]           # after pruning and renaming
+    terms: LossTerms                # loss of the best candidate (pruned symbols never count)
+    candidate: list[Symbol]         # the best candidate before pruning
+    pruned: list[Symbol]
+    restarts: list[dict[str, Any]]  # per restart: best loss and its terms
+    evaluations: int
+
+
+def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *, workers: int = 1,
+           checkpoint: Path | None = None, data_sha256: str = "",
+           report: Callable[[int, int, LossTerms | None], None] | None = None) -> AnnealResult:
+    """Run all restarts (``workers`` processes) and return the best symbols.
+
+    ``report(done, total, best_terms)`` is called after every round (for progress output). With
+    ``checkpoint``, the states are written after every round and an existing file (same data,
+    seed and settings) is resumed.
+    """
+    total = cfg.evals
+    states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+    pool = ctx.Pool(workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else None
+    if pool is None:
+        _init_worker(data, loss_cfg, cfg)
+    run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])
+    try:
+        if states is None:
+            states = run(_work, [("start", (r, seed)) for r in range(cfg.restarts)])
+        while True:
+            _save(checkpoint, states, cfg, loss_cfg, seed, data_sha256)
+            if report:
+                report(sum(s.done for s in states), total, min((s.best_terms for s in states), key=lambda t: t.total))
+            todo = [s for s in states if not s.finished]
+            if not todo:
+                break
+            for new in run(_work, [("advance", s) for s in todo]):
+                states[new.index] = new
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
+    return _result(states, data)
+
+
+def _result(states: list[RestartState], data: LossData) -> AnnealResult:
+    win = min(states, key=lambda s: (s.best_terms.total, s.index))
+    kept, pruned = prune(win.best, data)
+    per = [{"restart": s.index, "evaluations": s.done, **s.best_terms.to_doc()} for s in states]
+    return AnnealResult(kept, win.best_terms, win.best, pruned, per, sum(s.done for s in states))
+
+
+def prune(candidate: list[Symbol], data: LossData) -> tuple[list[Symbol], list[Symbol]]:
+    """Drop symbols never or always true on the data; rename the rest u1.., b1.. in order."""
+    unary = [s for s in candidate if s.arity == 1]
+    binary = [s for s in candidate if s.arity == 2]
+    ku, kb = active_columns(unary_truth(unary, data.features), binary_truth(binary, data.pairs))
+    kept_u = [s for s, k in zip(unary, ku) if k]
+    kept_b = [s for s, k in zip(binary, kb) if k]
+    pruned = [s for s, k in zip(unary, ku) if not k] + [s for s, k in zip(binary, kb) if not k]
+    kept = [s.with_name(_slot_name(1, i)) for i, s in enumerate(kept_u)]
+    kept += [s.with_name(_slot_name(2, i)) for i, s in enumerate(kept_b)]
+    return kept, pruned
+
+
+# ----------------------------------------------------------------------------- checkpoints
+
+def _header(cfg: AnnealConfig, loss_cfg: LossConfig, seed: int, data_sha256: str) -> dict[str, Any]:
+    return {"schema": CHECKPOINT_SCHEMA, "seed": seed, "data_sha256": data_sha256,
+            "anneal": cfg.to_doc(), "loss": loss_cfg.to_doc()}
+
+
+def _save(path: Path | None, states: list[RestartState], cfg: AnnealConfig, loss_cfg: LossConfig,
+          seed: int, data_sha256: str) -> None:
+    if path is None:
+        return
+    doc = _header(cfg, loss_cfg, seed, data_sha256)
+    doc["restarts"] = [s.to_doc() for s in states]
+    atomic_write_json(path, doc, indent=None)
+
+
+def _resume(path: Path, cfg: AnnealConfig, loss_cfg: LossConfig, seed: int,
+            data_sha256: str) -> list[RestartState] | None:
+    if not path.exists():
+        return None
+    doc = read_json(path)
+    want = _header(cfg, loss_cfg, seed, data_sha256)
+    if not isinstance(doc, dict):
+        raise UserError(f"{path}: not a checkpoint (expected a JSON object)")
+    for key, val in want.items():
+        if _normalise(doc.get(key)) != _normalise(val):
+            raise UserError(f"{path}: {key}: the checkpoint was made with other data or settings "
+                            f"({doc.get(key)!r} != {val!r}); delete it or choose another --checkpoint")
+    try:
+        states = [RestartState.from_doc(d) for d in doc["restarts"]]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise UserError(f"{path}: restarts: malformed checkpoint ({exc})") from None
+    if sorted(s.index for s in states) != list(range(cfg.restarts)):
+        raise UserError(f"{path}: restarts: expected {cfg.restarts} restarts")
+    return sorted(states, key=lambda s: s.index)
+
+
+def _normalise(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {k: _normalise(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_normalise(x) for x in v]
+    return v
+
+
+def default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+__all__ = ["AnnealConfig", "AnnealResult", "RestartState", "anneal", "advance", "start_restart", "prune",
+           "temperature", "default_workers"]

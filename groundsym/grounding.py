@@ -1,0 +1,106 @@
+"""How well learned symbols match the simulator's ground truth (evaluation only, never learning).
+
+For each learned symbol, every ground-truth relation of the same arity found in the traces is
+scored over all their scenes: unary symbols over (scene, object), binary ones over (scene, ordered
+pair of distinct objects), in both argument orders, since a binary symbol may learn a relation with
+its arguments swapped ("under" for "on"). The best match by F1 is reported with its precision and
+recall.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import UserError
+from .symbols import SymbolSet
+from .traces import Dataset
+
+
+@dataclass(frozen=True)
+class Match:
+    """The ground-truth relation a learned symbol matches best."""
+
+    symbol: str
+    arity: int
+    best_match: str | None
+    argument_order: str          # "same" or "swapped" ("same" for unary symbols)
+    precision: float
+    recall: float
+    f1: float
+
+    def __str__(self) -> str:
+        if self.best_match is None:
+            return f"{self.symbol}/{self.arity}: no ground-truth relation of arity {self.arity}"
+        order = " (arguments swapped)" if self.argument_order == "swapped" else ""
+        return (f"{self.symbol}/{self.arity} ~ {self.best_match}{order}: precision {self.precision:.3f}, "
+                f"recall {self.recall:.3f}, F1 {self.f1:.3f}")
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"symbol": self.symbol, "arity": self.arity, "best_match": self.best_match,
+                "argument_order": self.argument_order, "precision": self.precision, "recall": self.recall,
+                "f1": self.f1}
+
+
+def truth_arrays(ds: Dataset) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Ground truth of every scene as arrays: unary name -> (S, M), binary name -> (S, M, M)."""
+    scenes = [(tr.objects, s) for tr in ds.traces for s in tr.scenes]
+    arity: dict[str, int] = {}
+    for _, s in scenes:
+        for a in s.truth:
+            arity.setdefault(a.predicate, a.arity)
+    m = max(len(o) for o, _ in scenes)
+    unary = {p: np.zeros((len(scenes), m), bool) for p, n in arity.items() if n == 1}
+    binary = {p: np.zeros((len(scenes), m, m), bool) for p, n in arity.items() if n == 2}
+    for k, (objects, s) in enumerate(scenes):
+        index = {o: i for i, o in enumerate(objects)}
+        for a in s.truth:
+            if a.arity == 1 and a.predicate in unary:
+                unary[a.predicate][k, index[a.args[0]]] = True
+            elif a.arity == 2 and a.predicate in binary and a.args[0] != a.args[1]:
+                binary[a.predicate][k, index[a.args[0]], index[a.args[1]]] = True
+    return unary, binary
+
+
+def scores(pred: np.ndarray, true: np.ndarray) -> tuple[float, float, float]:
+    """Precision, recall and F1 of boolean arrays (0 where undefined)."""
+    tp = float(np.sum(pred & true))
+    p = tp / max(float(pred.sum()), 1.0)
+    r = tp / max(float(true.sum()), 1.0)
+    return p, r, (2 * p * r / (p + r) if p + r > 0 else 0.0)
+
+
+def match_symbols(symbols: SymbolSet, ds: Dataset) -> list[Match]:
+    """The best ground-truth match of every symbol over all scenes of ``ds``."""
+    sizes = {len(t.objects) for t in ds.traces}
+    if len(sizes) != 1:
+        raise UserError("grounding: traces with different numbers of objects are not supported")
+    if not any(s.truth for t in ds.traces for s in t.scenes):
+        raise UserError("grounding: the traces carry no ground-truth atoms (steps[].truth)")
+    feats = np.stack([np.asarray(s.features, float) for t in ds.traces for s in t.scenes])
+    pairs = np.stack([s.pairs() for t in ds.traces for s in t.scenes])
+    u, b = symbols.truth_arrays(feats, pairs)
+    true_u, true_b = truth_arrays(ds)
+    m = feats.shape[1]
+    off = ~np.eye(m, dtype=bool)[None]
+    out = []
+    for k, s in enumerate(symbols.unary):
+        cands = [(scores(u[..., k], t), name, "same") for name, t in sorted(true_u.items())]
+        out.append(_best(s.name, 1, cands))
+    for k, s in enumerate(symbols.binary):
+        pred = b[..., k] & off
+        cands = []
+        for name, t in sorted(true_b.items()):
+            cands.append((scores(pred, t & off), name, "same"))
+            cands.append((scores(pred, t.transpose(0, 2, 1) & off), name, "swapped"))
+        out.append(_best(s.name, 2, cands))
+    return out
+
+
+def _best(symbol: str, arity: int, cands: list) -> Match:
+    if not cands:
+        return Match(symbol, arity, None, "same", 0.0, 0.0, 0.0)
+    (p, r, f), name, order = max(cands, key=lambda c: (c[0][2], c[2] == "same"))
+    return Match(symbol, arity, name, order, p, r, f)
