@@ -8,8 +8,9 @@ held-out transitions:
   (``gap = true - learned``, in nats; the target is < 0.1), at 200 and 1000 transitions;
 * the contexts of the learned rules against those of the true operators, side by side.
 
-The known domains are NID rule sets written by hand (``tests/data/nid_*.rules.json``).
-Outputs go to ``--out``: ``recovery.md`` (tables and rules side by side), ``recovery.json`` and
+The known domains are the PPDDL reference domains (``domains/reference/*/domain.ppddl``, sampled
+from their problems with the PPDDL simulator and scored with their true dynamics) and two NID rule
+sets written by hand (``tests/data/nid_*.rules.json``). Outputs go to ``--out``: ``recovery.md`` (tables and rules side by side), ``recovery.json`` and
 ``recovery.png``.
 
     python examples/rule_recovery.py --out results/rule-recovery
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from groundsym.logic import Atom
-from groundsym.rules.evaluate import score_ruleset
+from groundsym.rules.evaluate import score_dataset, score_ruleset
 from groundsym.rules.io import read_rules
 from groundsym.rules.learner import LearnOptions, examples_from_dataset, learn_rules
 from groundsym.rules.model import Rule, RuleSet
@@ -36,7 +37,74 @@ from groundsym.symbolic_traces import SymbolicDataset
 ROOT = Path(__file__).resolve().parents[1]
 KNOWN = {"blocks": ROOT / "tests" / "data" / "nid_blocks.rules.json",
          "tower": ROOT / "tests" / "data" / "nid_tower.rules.json"}
+REFERENCE = ROOT / "domains" / "reference"
 TRACE_LENGTH = 20
+
+
+class NIDSource:
+    """A hand-written NID rule set: sampled with :func:`sample_traces`, scored with its rules."""
+
+    def __init__(self, path: Path):
+        self.true, self.meta = read_rules(path)
+        self.predicates = self.meta["predicates"]
+
+    def sample(self, transitions: int, rng: np.random.Generator) -> SymbolicDataset:
+        return simulate(self.true, self.meta, transitions, rng)
+
+    def log_likelihood(self, ds: SymbolicDataset) -> float:
+        return score_ruleset(self.true, ds).mean_log_likelihood
+
+    def contexts(self) -> list:
+        return sorted(canonical_context(r) for r in self.true.rules)
+
+
+class PPDDLSource:
+    """A PPDDL reference domain: random walks from its problems (alternating), true dynamics."""
+
+    def __init__(self, folder: Path):
+        from groundsym.ppddl.parser import load
+        from groundsym.ppddl.simulate import Task, transition_model
+
+        self.path = folder / "domain.ppddl"
+        self.domain, _ = load(self.path)
+        self.tasks = [Task(self.domain, load(self.path, p)[1]) for p in sorted(folder.glob("p*.ppddl"))]
+        self.prob, _ = transition_model(self.path)
+        self.predicates = None
+
+    def sample(self, transitions: int, rng: np.random.Generator) -> SymbolicDataset:
+        from groundsym.ppddl.simulate import simulate_traces
+
+        parts = []
+        n_traces = -(-transitions // TRACE_LENGTH)
+        for k, task in enumerate(self.tasks):
+            share = n_traces // len(self.tasks) + (k < n_traces % len(self.tasks))
+            if share:
+                parts.append(simulate_traces(task, share, TRACE_LENGTH, rng, inapplicable=0.25))
+        ds = SymbolicDataset([t for p in parts for t in p.traces], {k: v for p in parts for k, v in p.predicates.items()},
+                             {k: v for p in parts for k, v in p.primitives.items()})
+        self.predicates = ds.predicates
+        return trim(ds, transitions)
+
+    def log_likelihood(self, ds: SymbolicDataset) -> float:
+        return score_dataset(self.prob, ds).mean_log_likelihood
+
+    def contexts(self) -> list:
+        """The operators' contexts where the domain is in the rule subset, else their preconditions."""
+        from groundsym.errors import UserError
+        from groundsym.ppddl.ast import layout, to_sexp
+        from groundsym.ppddl.convert import domain_to_rules
+
+        try:
+            return sorted(canonical_context(r) for r in domain_to_rules(self.domain).rules)
+        except UserError:
+            return sorted((a.name, (" ".join(layout(to_sexp(a.precondition)).split()),)) for a in self.domain.actions)
+
+
+def sources() -> dict:
+    out: dict = {f"{d.name} (PPDDL)": PPDDLSource(d) for d in sorted(REFERENCE.iterdir())
+                 if (d / "domain.ppddl").exists()}
+    out.update({f"{name} (NID)": NIDSource(path) for name, path in KNOWN.items()})
+    return out
 
 
 def table_starts(n: int, rng: np.random.Generator, predicates: dict[str, int],
@@ -56,7 +124,12 @@ def simulate(true: RuleSet, meta: dict, transitions: int, rng: np.random.Generat
     n_traces = -(-transitions // TRACE_LENGTH)
     ds = sample_traces(true, table_starts(n_traces, rng, meta["predicates"]), meta["primitives"],
                        meta["predicates"], TRACE_LENGTH, rng, inapplicable=0.25)
-    excess = ds.n_transitions - transitions                 # trim to the exact size
+    return trim(ds, transitions)
+
+
+def trim(ds: SymbolicDataset, transitions: int) -> SymbolicDataset:
+    """Cut the last traces so the dataset holds exactly ``transitions`` transitions."""
+    excess = ds.n_transitions - transitions
     while excess > 0 and ds.traces:
         tr = ds.traces[-1]
         cut = min(excess, len(tr))
@@ -68,28 +141,27 @@ def simulate(true: RuleSet, meta: dict, transitions: int, rng: np.random.Generat
 
 
 def canonical_context(rule: Rule) -> tuple[str, tuple[str, ...]]:
-    """The action name and context with deictic variables renamed to the smallest ordering."""
+    """The action and context with action arguments renamed ?x1.. and deictic references ?y1.. in
+    the order that sorts first, so equal contexts compare equal whatever the variable names."""
+    acts = {v: f"?x{i + 1}" for i, v in enumerate(rule.action.args)}
     best = None
     for perm in permutations(rule.deictic):
-        ren = dict(zip(rule.deictic, (f"?y{i + 1}" for i in range(len(perm)))))
-        ren = {v: ren[p] for v, p in zip(rule.deictic, perm)}
+        ren = {**acts, **{v: f"?y{i + 1}" for i, v in enumerate(perm)}}
         ctx = tuple(sorted(str(l.substitute(ren)) for l in rule.context))
         best = ctx if best is None or ctx < best else best
-    return rule.action.predicate + "(" + ",".join(rule.action.args) + ")", best or ()
+    return str(rule.action.substitute(acts)), best or ()
 
 
-def recover(true: RuleSet, meta: dict, n_train: int, seed: int, n_test: int = 2000,
-            options: LearnOptions = LearnOptions()) -> dict:
+def recover(source, n_train: int, seed: int, n_test: int = 2000, options: LearnOptions = LearnOptions()) -> dict:
     """Learn from ``n_train`` sampled transitions; held-out comparison with the true domain."""
-    rng = np.random.default_rng(seed)
-    train = simulate(true, meta, n_train, rng)
-    test = simulate(true, meta, n_test, np.random.default_rng(seed + 10_000))
+    train = source.sample(n_train, np.random.default_rng(seed))
+    test = source.sample(n_test, np.random.default_rng(seed + 10_000))
     t0 = time.perf_counter()
-    learned, _ = learn_rules(examples_from_dataset(train), meta["predicates"], options, seed=seed, progress=False)
+    learned, _ = learn_rules(examples_from_dataset(train), train.predicates, options, seed=seed, progress=False)
     seconds = time.perf_counter() - t0
-    true_ll = score_ruleset(true, test).mean_log_likelihood
+    true_ll = source.log_likelihood(test)
     learned_ll = score_ruleset(learned, test).mean_log_likelihood
-    true_ctx = sorted(canonical_context(r) for r in true.rules)
+    true_ctx = source.contexts()
     learned_ctx = sorted(canonical_context(r) for r in learned.rules)
     return {"train": train.n_transitions, "seed": seed, "true_ll": true_ll, "learned_ll": learned_ll,
             "gap": true_ll - learned_ll, "same_contexts": true_ctx == learned_ctx, "seconds": seconds,
@@ -122,11 +194,10 @@ def main() -> None:
                        "| domain | transitions | seed | true | learned | gap | same contexts | learn time (s) |",
                        "|---|---|---|---|---|---|---|---|"]
     sides = []
-    for name, path in KNOWN.items():
-        true, meta = read_rules(path)
+    for name, source in sources().items():
         for n in args.sizes:
             for seed in range(args.seeds):
-                r = recover(true, meta, n, seed, args.test)
+                r = recover(source, n, seed, args.test)
                 print(f"{name} n={n} seed={seed}: true {r['true_ll']:.4f} learned {r['learned_ll']:.4f} "
                       f"gap {r['gap']:.4f} same contexts {r['same_contexts']} ({r['seconds']:.2f} s)", flush=True)
                 md.append(f"| {name} | {n} | {seed} | {r['true_ll']:.4f} | {r['learned_ll']:.4f} | "

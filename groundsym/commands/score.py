@@ -61,7 +61,7 @@ def _score_model_dir(model: Path, ds: SymbolicDataset, data: str) -> dict:
 
 
 def _score_ppddl(path: Path, ds: SymbolicDataset, data: str) -> dict:
-    from ..ppddl import transition_model  # the PPDDL engineer's API: true transition probabilities
+    from ..ppddl.simulate import transition_model  # true transition probabilities of a PPDDL domain
 
     prob, names = transition_model(path, ds)
     rep = score_dataset(prob, ds, P_MIN)

@@ -121,6 +121,8 @@ class ActionLearner:
         self.rng = rng
         self.action = Atom(name, tuple(f"?x{i + 1}" for i in range(arity)))
         self._fits: dict[tuple[Literal, ...], RuleFit | None] = {}
+        self._covs: dict[tuple[Literal, ...], Coverage] = {}
+        self._refits: dict[tuple, RuleFit] = {}
         self.total_w = float(table.weights.sum())
 
     # --- fitting and scoring -------------------------------------------------------------------
@@ -133,16 +135,46 @@ class ActionLearner:
         if _valid_context(ctx, self.action, self.opts.max_deictic):
             cov = self.table.cover(self.action, ctx, self.opts.injective)
             if len(cov):
+                self._covs[ctx] = cov
                 of = induce_outcomes(self.table, cov, self.opts.alpha, self.opts.p_min)
                 result = RuleFit(_make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik)
         self._fits[ctx] = result
         return result
 
-    def default(self, fits: Sequence[RuleFit]) -> tuple[DefaultRule, float]:
-        """Fit the default rule on the examples no rule covers; its log-likelihood there."""
-        mask = np.ones(len(self.table), dtype=bool)
+    def _refit(self, f: RuleFit, unique: frozenset[int]) -> RuleFit:
+        """``f`` with its outcomes fitted on the examples it covers alone (the rest go to the default
+        rule, A.3); its ``covered`` set stays, so overlaps are still seen when the set changes."""
+        if unique == f.covered:
+            return f
+        key = (f.rule.context, unique)
+        if key not in self._refits:
+            cov = self._covs[f.rule.context]
+            keep = np.isin(cov.index, sorted(unique))
+            sub = Coverage(cov.index[keep], cov.binding[keep], cov.variables)
+            if len(sub):
+                of = induce_outcomes(self.table, sub, self.opts.alpha, self.opts.p_min)
+                rule, ll = _make_rule(self.action, f.rule.context, of), of.loglik
+            else:                     # covers nothing alone: keeps its own fit, explains nothing here
+                rule, ll = f.rule, 0.0
+            self._refits[key] = RuleFit(rule, f.covered, ll)
+        return self._refits[key]
+
+    def resolve(self, fits: Sequence[RuleFit]) -> tuple[tuple[RuleFit, ...], np.ndarray]:
+        """Rule-set semantics on the training data: each rule refitted on the examples it covers
+        alone, and the mask of examples the default rule takes (covered by none, or by several)."""
+        count = np.zeros(len(self.table), dtype=int)
         for f in fits:
-            mask[list(f.covered)] = False
+            count[list(f.covered)] += 1
+        if count.max(initial=0) <= 1:
+            return tuple(fits), count == 0
+        shared = set(np.flatnonzero(count > 1).tolist())
+        return tuple(self._refit(f, f.covered - shared) for f in fits), count != 1
+
+    def default(self, fits: Sequence[RuleFit]) -> tuple[DefaultRule, float]:
+        """Fit the default rule on the examples no rule covers alone; its log-likelihood there."""
+        return self._default(self.resolve(fits)[1])
+
+    def _default(self, mask: np.ndarray) -> tuple[DefaultRule, float]:
         w = self.table.weights[mask]
         ch = self.table.changed[mask]
         lo, hi = self.opts.default_clip
@@ -153,8 +185,9 @@ class ActionLearner:
         return d, ll
 
     def score(self, fits: Sequence[RuleFit]) -> float:
-        _, ll = self.default(fits)
-        return ll + sum(f.loglik - self.opts.alpha * f.pen for f in fits)
+        resolved, mask = self.resolve(fits)
+        _, ll = self._default(mask)
+        return ll + sum(f.loglik - self.opts.alpha * f.pen for f in resolved)
 
     @staticmethod
     def integrate(fits: Sequence[RuleFit], new: Sequence[RuleFit]) -> tuple[RuleFit, ...]:
@@ -170,7 +203,8 @@ class ActionLearner:
         ops: list[tuple[str, Callable[[tuple[RuleFit, ...]], Iterable[tuple[RuleFit, ...]]]]] = [
             ("ExplainExamples", self.explain_examples), ("DropRules", self.drop_rules),
             ("DropLits", self.drop_lits), ("DropRefs", self.drop_refs), ("AddLits", self.add_lits),
-            ("AddRefs", self.add_refs), ("SplitOnLits", self.split_on_lits)]
+            ("AddRefs", self.add_refs), ("SplitOnLits", self.split_on_lits),
+            ("AddExceptions", self.add_exceptions)]
         R: tuple[RuleFit, ...] = ()
         best = self.score(R)
         successes = {name: 0 for name, _ in ops}
@@ -184,7 +218,7 @@ class ActionLearner:
             if not improved:
                 break
         d, _ = self.default(R)
-        fits = sorted(R, key=lambda f: str(f.rule.context))
+        fits = sorted(self.resolve(R)[0], key=lambda f: str(f.rule.context))
         stats = {"score": best, "rules": len(fits), "examples": int(len(self.table)),
                  "transitions": self.total_w, "successes": successes}
         return fits, d, stats
@@ -308,6 +342,25 @@ class ActionLearner:
                           if h is not None]
                 if len(halves) == 2:
                     yield self.integrate(rest, halves)
+
+    def add_exceptions(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
+        """A specialisation of a rule added *beside* it (not integrated): where both cover, neither
+        applies and the default rule (no change) takes over (A.3). This states conditions NID
+        contexts cannot, such as "the hand is empty" without a predicate for it: the exception
+        ``closeHandAround(X): clear(X), inhand(Y)`` removes the full-hand cases from the grasp
+        rule. Candidates: the rule's context plus one literal (AddLits) or one reference (AddRefs)."""
+        for f in R:
+            ctx = set(f.rule.context)
+            specials = [ctx | {l} for a in self._absent_atoms(f.rule) for l in (Literal(a, True), Literal(a, False))]
+            if len(f.rule.deictic) < self.opts.max_deictic:
+                v = _fresh(f.rule)
+                specials += [ctx | {Literal(a, True)} for a in
+                             _atoms_over((*f.rule.variables, v), self.table.predicates, self.opts.injective)
+                             if v in a.args]
+            for c in specials:
+                g = self.fit(c)
+                if g is not None and g.covered <= f.covered and g.rule.context not in {h.rule.context for h in R}:
+                    yield R + (g,)
 
     def _absent_atoms(self, rule: Rule) -> list[Atom]:
         present = {l.atom for l in rule.context}
