@@ -223,7 +223,7 @@ class Loss:
             if bound[c] == INF or bound[c] > best:
                 break
             d, perm = self._class_distance(rep_keys[k], rep_keys[c], q, reps[c], best + 0.5)
-            if perm is None:
+            if perm is None or d > best:  # (a cached exact distance may exceed the threshold)
                 continue
             if d < best:
                 best, hits = d, []
@@ -232,12 +232,12 @@ class Loss:
 
     def _class_distance(self, ka: bytes, kb: bytes, a: Encoded, b: Encoded,
                         threshold: float) -> tuple[float, np.ndarray | None]:
+        if kb < ka:  # search each unordered pair in one orientation only; swapped roles: inverse perm
+            d, perm = self._class_distance(kb, ka, b, a, threshold)
+            return d, (None if perm is None else np.argsort(perm))
         hit = self._pair_cache.get((ka, kb))
         if hit is not None and (hit[1] is not None or hit[0] >= threshold):
             return hit
-        mirror = self._pair_cache.get((kb, ka))
-        if mirror is not None and mirror[1] is not None:  # roles swapped: the inverse permutation
-            return mirror[0], np.argsort(mirror[1])
         groups = self._groups.get(kb)
         if groups is None:
             groups = self._groups[kb] = twin_groups(b)

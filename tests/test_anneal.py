@@ -1,0 +1,106 @@
+"""Simulated annealing: determinism, worker independence, checkpoint resume, pruning, and (slow) that
+it finds the intended symbols of the kinematic fixture world."""
+
+import numpy as np
+import pytest
+
+from groundsym.anneal import AnnealConfig, anneal, prune, temperature
+from groundsym.grounding import match_symbols
+from groundsym.loss import Loss, LossConfig, prepare
+from groundsym.symbols import Symbol, SymbolSet
+from tests.test_loss import intended_symbols, kinematic_tower
+
+
+@pytest.fixture(scope="module")
+def data():
+    return prepare(kinematic_tower(6, seed=3))
+
+
+def _same(a, b):
+    assert [s.name for s in a.candidate] == [s.name for s in b.candidate]
+    for x, y in zip(a.candidate, b.candidate):
+        assert np.array_equal(x.centre, y.centre) and np.array_equal(x.widths, y.widths)
+    assert a.terms == b.terms and a.restarts == b.restarts
+
+
+def test_result_does_not_depend_on_workers(data):
+    cfg = AnnealConfig(evals=120, restarts=2, chunk=30)
+    one = anneal(data, LossConfig(), cfg, seed=5, workers=1)
+    two = anneal(data, LossConfig(), cfg, seed=5, workers=2)
+    _same(one, two)
+    assert one.evaluations == 120
+    other = anneal(data, LossConfig(), cfg, seed=6, workers=1)
+    assert other.terms != one.terms or not np.array_equal(other.candidate[0].centre, one.candidate[0].centre)
+
+
+def test_best_is_the_best_of_all_restarts_and_really_scores_that(data):
+    cfg = AnnealConfig(evals=200, restarts=2, chunk=50)
+    res = anneal(data, LossConfig(), cfg, seed=1)
+    assert res.terms.total == min(r["total"] for r in res.restarts)
+    assert Loss(data)(res.candidate) == res.terms   # a fresh loss (empty caches) agrees
+
+
+def test_checkpoint_resumes_to_the_same_result(data, tmp_path):
+    cfg = AnnealConfig(evals=240, restarts=2, chunk=40)
+    full = anneal(data, LossConfig(), cfg, seed=2)
+    ck = tmp_path / "ck.json"
+    rounds = []
+
+    def interrupt(done, total, best):
+        rounds.append(done)
+        if len(rounds) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        anneal(data, LossConfig(), cfg, seed=2, checkpoint=ck, report=interrupt)
+    assert ck.exists()
+    resumed = anneal(data, LossConfig(), cfg, seed=2, checkpoint=ck)
+    _same(full, resumed)
+
+
+def test_checkpoint_of_other_settings_is_refused(data, tmp_path):
+    from groundsym.errors import UserError
+    ck = tmp_path / "ck.json"
+    anneal(data, LossConfig(), AnnealConfig(evals=20, restarts=1, chunk=10), seed=0, checkpoint=ck)
+    with pytest.raises(UserError, match="ck.json: seed"):
+        anneal(data, LossConfig(), AnnealConfig(evals=20, restarts=1, chunk=10), seed=1, checkpoint=ck)
+
+
+def test_loss_is_a_pure_function_of_the_symbols(data):
+    """Caches only save time: a used Loss and a fresh one give identical terms."""
+    rng = np.random.default_rng(0)
+    used = Loss(data)
+    cands = []
+    for _ in range(15):
+        c = [Symbol("u1", 1, data.features[rng.integers(len(data.features)), rng.integers(7)], data.unary_scale),
+             Symbol("b1", 2, data.pairs[rng.integers(len(data.pairs)), 0, 1], data.pair_scale * rng.uniform(0.1, 1, 4))]
+        cands.append(c)
+        used(c)
+    for c in reversed(cands):
+        assert used(c) == Loss(data)(c)
+
+
+def test_temperature_schedule_is_geometric():
+    cfg = AnnealConfig(t_start=0.1, t_end=0.001)
+    assert temperature(cfg, 0, 100, 10) == pytest.approx(1.0)
+    assert temperature(cfg, 100, 100, 10) == pytest.approx(0.01)
+    assert temperature(cfg, 50, 100, 10) == pytest.approx(0.1)
+
+
+def test_prune_drops_never_and_always_true_symbols_and_renames(data):
+    never = Symbol("u1", 1, np.full(4, 9.0), np.full(4, 0.01))
+    always = Symbol("b1", 2, np.zeros(4), np.full(4, 100.0))
+    good = intended_symbols()
+    kept, pruned = prune([never, good[0].with_name("u2"), always, good[1].with_name("b2")], data)
+    assert [s.name for s in kept] == ["u1", "b1"]
+    assert np.array_equal(kept[0].centre, good[0].centre) and pruned == [never, always]
+
+
+@pytest.mark.slow
+def test_finds_inhand_and_on_in_the_fixture_world():
+    ds = kinematic_tower(16, seed=11)
+    res = anneal(prepare(ds), LossConfig(), AnnealConfig(evals=16000, restarts=4), seed=0, workers=2)
+    matches = {m.arity: m for m in match_symbols(SymbolSet(tuple(res.symbols), ds.feature_names),
+                                                 kinematic_tower(20, seed=99))}
+    assert matches[1].best_match == "inhand" and matches[1].f1 >= 0.9
+    assert matches[2].best_match == "on" and matches[2].f1 >= 0.8
