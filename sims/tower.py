@@ -208,13 +208,19 @@ class TowerSim:
         return np.asarray(img, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
 
     def _labels(self, width: int, height: int) -> list[tuple[float, float, str]]:
+        """Pixel positions just right of each object (half its projected size plus a margin)."""
         view, proj = self._camera
         pos, _ = self.world.poses()
+
+        def pixel(point: np.ndarray) -> np.ndarray:
+            clip = proj @ view @ np.array([*point, 1.0])
+            return np.array([(clip[0] / clip[3] + 1) / 2 * width, (1 - clip[1] / clip[3]) / 2 * height])
+
         out = []
         for k, p in enumerate(pos):
-            clip = proj @ view @ np.array([*p[:2], p[2] + self.kinds[k][1] / 2 + 0.015, 1.0])
-            ndc = clip[:3] / clip[3]
-            out.append(((ndc[0] + 1) / 2 * width, (1 - ndc[1]) / 2 * height, self.objects[k]))
+            centre = pixel(p)
+            half = np.linalg.norm(pixel(p + np.array([0.0, 0.0, self.kinds[k][1] / 2])) - centre)
+            out.append((centre[0] + half + 3, centre[1], self.objects[k]))
         return out
 
     def close(self) -> None:
@@ -272,7 +278,7 @@ def write_png(path: str | Path, rgb: np.ndarray, labels: list[tuple[float, float
     ax.imshow(rgb)
     ax.set_axis_off()
     for x, y, text in labels:
-        ax.text(x, y, text, ha="center", va="bottom", fontsize=9, color="black",
+        ax.text(x, y, text, ha="left", va="center", fontsize=8, color="black",
                 bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.7})
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)

@@ -69,6 +69,7 @@ RELEASE_GAP = 0.012                # gap between a released object's bottom and 
 PALM_HALF = (0.105, 0.035)         # half extents of the hand across (along the finger axis) and deep
 TABLE_HALF = (0.45, 0.6, 0.02)     # table top at z = 0
 TABLE_CENTRE = (0.45, 0.0)
+FLOOR_Z = -0.62                    # the room's floor, out of the arm's reach
 DOWN = pb.getQuaternionFromEuler((np.pi, 0.0, 0.0))
 
 # controller tolerances
@@ -121,6 +122,11 @@ class TowerWorld:
                                    physicsClientId=c)
         self.table = pb.createMultiBody(0, col, vis, (*TABLE_CENTRE, -TABLE_HALF[2]), physicsClientId=c)
         pb.changeDynamics(self.table, -1, lateralFriction=0.8, physicsClientId=c)
+        floor_half = (3.0, 3.0, 0.01)                                        # catches what falls off
+        floor = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=floor_half, physicsClientId=c)
+        floor_vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=floor_half, rgbaColor=(0.85, 0.85, 0.82, 1),
+                                         physicsClientId=c)
+        pb.createMultiBody(0, floor, floor_vis, (0, 0, FLOOR_Z - floor_half[2]), physicsClientId=c)
         self.robot = pb.loadURDF("franka_panda/panda.urdf", (0, 0, 0), useFixedBase=True,
                                  flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c)
         for j, q in zip(ARM_JOINTS, HOME_Q):
@@ -156,6 +162,12 @@ class TowerWorld:
         if self.client >= 0:
             pb.disconnect(physicsClientId=self.client)
             self.client = -1
+
+    def __del__(self) -> None:  # a forgotten close() must not leak physics servers
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown may have torn pybullet down
+            pass
 
     # ------------------------------------------------------------------ reading the world
 

@@ -98,6 +98,17 @@ def test_stacking_three_gives_above_through_the_tower(exact):
     assert s.reward == pytest.approx((big_h := exact.options["big_size"]) * 3 / 7, abs=0.001) and big_h
 
 
+def test_is_a_sim_found_by_name():
+    from groundsym.registry import make_sim
+    from groundsym.sim import Sim
+
+    with make_sim("tower", {"cubes": "3", "noise": "0"}) as sim:
+        assert isinstance(sim, Sim) and sim.name == "tower" and sim.episode_length == 10
+        assert sim.options["big"] == 1                      # 3/7 of 3 cubes, rounded
+        assert sim.truth_predicates == {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1,
+                                        "ball": 1, "big": 1}
+
+
 def test_balls_and_options_from_strings():
     with TowerSim(cubes="2", balls="2", big="1", noise="0") as sim:
         s = sim.reset(4)
