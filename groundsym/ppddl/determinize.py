@@ -5,6 +5,8 @@
   optimistically. Outcomes that change nothing are left out: a classical planner never needs them.
 * ``most-likely`` (FFR-s): each action keeps only its most probable outcome.
 
+Actions (or outcomes) that change nothing are left out in both modes.
+
 Reward effects, ``:goal-reward`` and ``:metric`` have no place in plain PDDL and are dropped.
 A ``probabilistic`` under ``forall`` is expanded as if all objects drew the same outcome, exact
 when at most one object meets the condition (the tower cell's one held object), optimistic else.
@@ -15,10 +17,13 @@ refuses, in one line, a planner that cannot take the domain's features.
 
 from __future__ import annotations
 
+import os
 import tempfile
+from contextlib import contextmanager
 from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
+from typing import Iterator
 
 from ..errors import UserError
 from ..logic import Atom, Literal
@@ -76,13 +81,17 @@ def _merged(e: Effect) -> list[tuple[Fraction, Effect]]:
 
 
 def determinize_action(a: Action, mode: str) -> list[Action]:
+    """The action's deterministic versions; none when they would change nothing (a no-op never
+    helps a classical planner, and Fast Downward through unified-planning fails on some)."""
     alts = _merged(a.effect)
     if mode == "most-likely":
         p, best = max(alts, key=lambda px: px[0])  # max keeps the first of equal ones
+        if _empty(best):
+            return []
         return [replace(a, effect=best, comment=f"most likely outcome, p = {float(p):.4g}" if p < 1 else "")]
     useful = [(p, x) for p, x in alts if p > 0 and not _empty(x)]
     if len(alts) == 1:
-        return [replace(a, effect=alts[0][1])]
+        return [replace(a, effect=alts[0][1])] if useful else []
     return [replace(a, name=f"{a.name}_o{i}", effect=x, comment=f"outcome {i}, p = {float(p):.4g}")
             for i, (p, x) in enumerate(useful, 1)]
 
@@ -120,6 +129,19 @@ def primitive_plan(domain: Domain, steps: list[Atom]) -> list[Atom]:
     return out
 
 
+@contextmanager
+def _private_cwd() -> Iterator[None]:
+    """Fast Downward's driver writes ``output.sas`` into the working directory: two planners run
+    from one directory at once read each other's task. Each run gets a directory of its own."""
+    old = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="groundsym-fd-") as tmp:
+        os.chdir(tmp)
+        try:
+            yield
+        finally:
+            os.chdir(old)
+
+
 def solve(domain: Domain, problem: Problem, planner: str = "fast-downward",
           timeout: float | None = 60.0) -> list[Atom] | None:
     """A plan (ground PPDDL action atoms of the plain domain) or None when the planner finds none.
@@ -148,7 +170,7 @@ def solve(domain: Domain, problem: Problem, planner: str = "fast-downward",
         missing = sorted(set(up_problem.kind.features) - set(engine_cls.supported_kind().features))
         raise UserError(f"planner {planner!r} cannot take domain {domain.name}: it lacks "
                         f"{', '.join(f.lower().replace('_', '-') for f in missing)}")
-    with ups.OneshotPlanner(name=planner) as engine:
+    with _private_cwd(), ups.OneshotPlanner(name=planner) as engine:
         result = engine.solve(up_problem, timeout=timeout)
     if result.status not in (Status.SOLVED_SATISFICING, Status.SOLVED_OPTIMALLY) or result.plan is None:
         return None

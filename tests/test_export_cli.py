@@ -1,0 +1,153 @@
+"""``groundsym export-domain`` on a model learned from data simulated from the reference blocks world."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from groundsym.cli import main
+from groundsym.logic import Atom, parse_atom
+from groundsym.modeldir import learn_symbolic_model
+from groundsym.ppddl.ast import And
+from groundsym.ppddl.convert import NOISE_PREDICATE, action_to_rule, rules_equal
+from groundsym.ppddl.determinize import primitive_plan, solve
+from groundsym.ppddl.parser import load
+from groundsym.ppddl.simulate import Task, simulate_traces
+from groundsym.rules.io import read_rules
+from groundsym.symbolic_traces import read_symbolic_traces, write_symbolic_traces
+
+REF = Path(__file__).parent.parent / "domains" / "reference"
+
+
+EASY = """(define (problem easy) (:domain noisy-blocksworld) (:objects a b c d)
+  (:init (handempty) (clear a) (clear b) (clear c) (clear d) (ontable a) (ontable b) (ontable c) (ontable d))
+  (:goal (on a b)) (:goal-reward 1))"""
+
+
+def _model(tmp: Path, domain: str, problem: str, seed: int) -> Path:
+    if problem == "easy":
+        (tmp / "easy.ppddl").write_text(EASY)
+    d, p = load(REF / domain, tmp / "easy.ppddl" if problem == "easy" else REF / problem)
+    ds = simulate_traces(Task(d, p), 20, 15, np.random.default_rng(seed), inapplicable=0.25)
+    write_symbolic_traces(tmp / "data.json", ds)
+    learn_symbolic_model(ds, tmp / "model", seed=0, argv=["test"], progress=False)
+    return tmp / "model"
+
+
+@pytest.fixture(scope="module")
+def bw_model(tmp_path_factory) -> Path:
+    return _model(tmp_path_factory.mktemp("bw"), "blocksworld/domain.ppddl", "easy", 5)
+
+
+@pytest.fixture(scope="module")
+def tower_model(tmp_path_factory) -> Path:
+    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p01.ppddl", 2)
+
+
+def _numbered(rules):
+    count: dict[str, int] = {}
+    for r in rules:
+        count[r.action.predicate] = count.get(r.action.predicate, 0) + 1
+        yield f"{r.action.predicate}_r{count[r.action.predicate]}", r
+
+
+@pytest.mark.parametrize("noise", ["no-change", "pessimistic"])
+def test_export_parses_back_to_the_models_rules(bw_model, tower_model, tmp_path, noise):
+    for model in (bw_model, tower_model):
+        out = tmp_path / model.parent.name / noise
+        assert main(["export-domain", str(model), "-o", str(out), "--noise", noise]) == 0
+        domain, problem = load(out / "domain.ppddl", out / "problem.ppddl")
+        rules, _ = read_rules(model / "rules.json")
+        actions = {a.name: a for a in domain.actions}
+        assert len(actions) == len(rules.rules)
+        for name, r in _numbered(rules.rules):
+            assert rules_equal(r, action_to_rule(actions[name])), name
+        assert (domain.predicate(NOISE_PREDICATE) is not None) == (noise == "pessimistic")
+        first = read_symbolic_traces(model / "symbolic-traces.json").traces[0]
+        assert frozenset(problem.init) == first.states[0]
+        assert sorted(o.name for o in problem.objects) == sorted(first.objects)
+
+
+def test_derived_goal_is_the_best_state_in_the_data(bw_model, tmp_path):
+    assert main(["export-domain", str(bw_model), "-o", str(tmp_path)]) == 0
+    _, problem = load(tmp_path / "domain.ppddl", tmp_path / "problem.ppddl")
+    ds = read_symbolic_traces(bw_model / "symbolic-traces.json")
+    best = max(r for tr in ds.traces for r in [*tr.rewards, tr.final_reward])
+    assert best == 1.0                                            # the goal (on a b) was reached
+    goal_atoms = set(problem.goal.args)
+    assert parse_atom("(on a b)") in goal_atoms
+    states = [s for tr in ds.traces for s, r in zip(tr.states, [*tr.rewards, tr.final_reward]) if r == best]
+    assert any(goal_atoms <= s for s in states)
+    text = (tmp_path / "problem.ppddl").read_text()
+    assert "; goal: the highest-reward abstract state in the data" in text
+
+
+def test_constant_reward_omits_the_goal_and_says_why(tower_model, tmp_path):
+    assert main(["export-domain", str(tower_model), "-o", str(tmp_path)]) == 0
+    text = (tmp_path / "problem.ppddl").read_text()
+    assert "(:goal" not in text and "no goal: the reward is constant (0) in the data" in text
+
+
+def test_determinised_export_is_solved_by_fast_downward(tower_model, tmp_path):
+    code = main(["export-domain", str(tower_model), "-o", str(tmp_path), "--goal", "(on o1 o2) (on o2 o3)",
+                 "--determinize", "all-outcomes"])
+    assert code == 0
+    plain, plain_problem = load(tmp_path / "domain.pddl", tmp_path / "problem.pddl")
+    plan = solve(plain, plain_problem)
+    assert plan
+    task = Task(plain, plain_problem)
+    s = task.initial_state
+    for step in plan:
+        (succ,) = task.distribution(s, step)
+        s = succ.state
+    assert task.goal_holds(s)
+    domain, _ = load(tmp_path / "domain.ppddl")
+    prims = primitive_plan(domain, plan)
+    assert {p.predicate for p in prims} <= {"closeHandAround", "openHandOver"} and all(p.arity == 1 for p in prims)
+
+
+def test_scene_option_and_deterministic_output(bw_model, tmp_path):
+    data = bw_model.parent / "data.json"
+    a, b = tmp_path / "a", tmp_path / "b"
+    for out in (a, b):
+        assert main(["export-domain", str(bw_model), "-o", str(out), "--scene", f"{data}:2:4"]) == 0
+    assert (a / "domain.ppddl").read_bytes() == (b / "domain.ppddl").read_bytes()
+    _, problem = load(a / "domain.ppddl", a / "problem.ppddl")
+    assert frozenset(problem.init) == read_symbolic_traces(data).traces[2].states[4]
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--goal", "(on a b) (tower a)"], "--goal: unknown predicate 'tower'"),
+    (["--goal", "(on a z)"], "names an object that is not in the scene"),
+    (["--goal", "(on a)"], "--goal: on takes 2 argument(s)"),
+    (["--scene", "nowhere.json:0"], "--scene: expected FILE:TRACE:STEP"),
+    (["--scene", "{data}:99:0"], "no trace 99"),
+])
+def test_bad_input_is_one_line_and_status_2(bw_model, tmp_path, capsys, extra, message):
+    extra = [x.replace("{data}", str(bw_model.parent / "data.json")) for x in extra]
+    capsys.readouterr()
+    assert main(["export-domain", str(bw_model), "-o", str(tmp_path / "o"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_learned_predicates_say_what_they_mean(bw_model, tmp_path):
+    from groundsym.symbols import Symbol, SymbolSet, save_symbols
+
+    symbols = SymbolSet((Symbol("clear", 1, np.array([0.1, 0.2, 0.3]), np.array([0.05, 0.05, 0.02])),
+                         Symbol("on", 2, np.array([0.0, 0.0, 0.05]), np.array([0.02, 0.02, 0.01]))),
+                        ("x", "y", "z"))
+    model = tmp_path / "model"
+    model.mkdir()
+    for f in ("rules.json", "reward.json", "symbolic-traces.json"):
+        (model / f).write_bytes((bw_model / f).read_bytes())
+    save_symbols(model / "symbols.json", symbols, shares={"clear": 0.25, "on": 0.125})
+    assert main(["export-domain", str(model), "-o", str(tmp_path / "o")]) == 0
+    lines = (tmp_path / "o" / "domain.ppddl").read_text().splitlines()
+    clear = next(l for l in lines if l.strip().startswith("(clear"))
+    on = next(l for l in lines if l.strip().startswith("(on "))
+    assert "x=0.1±0.05" in clear and "25.0%" in clear and "one object" in clear
+    assert "dz=0.05±0.01" in on and "12.5%" in on and "ordered pair" in on
