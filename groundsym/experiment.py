@@ -104,21 +104,27 @@ def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, d
             raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
                             f"({', '.join(sorted(sim.truth_predicates))})")
         return TruthSymbols(tuple(cfg.truth_symbols), dict(sim.truth_predicates)), {"symbols": "truth"}
-    from .anneal import AnnealConfig, learn_symbol_set
+    from .anneal import AnnealConfig, anneal
+    from .loss import LossConfig, prepare
+    from .symbols import SymbolSet
 
-    acfg = AnnealConfig(unary=cfg.unary, binary=cfg.binary, evals=cfg.evals, restarts=cfg.restarts)
-    result = learn_symbol_set(ds, acfg, seed=seed, workers=1, progress=False)
-    return result.symbols, {"symbols": "learned", "loss": float(result.loss)}
+    loss_cfg = LossConfig()
+    data = prepare(ds, loss_cfg, "symbol data")
+    acfg = AnnealConfig(n_unary=cfg.unary, n_binary=cfg.binary, evals=cfg.evals, restarts=cfg.restarts)
+    result = anneal(data, loss_cfg, acfg, seed, workers=1)
+    symbols = SymbolSet(tuple(result.symbols), tuple(ds.feature_names))
+    return symbols, {"symbols": "learned", "loss": result.terms.to_doc(), "evaluations": result.evaluations,
+                     "pruned": len(result.pruned)}
 
 
 def grounding_f1(symbols: Any, ds: Any) -> dict[str, Any]:
-    """How each learned symbol matches the sim's truth on ``ds`` (best relation, either argument
-    order): the check that the annealing budget was enough."""
-    try:
-        from .grounding import grounding_report
-    except ImportError:
-        return {}
-    return {"grounding": [dict(r) for r in grounding_report(symbols, ds)]}
+    """How each learned symbol matches the sim's truth on ``ds`` (held-out model data; best relation,
+    either argument order): the check that the annealing budget was enough."""
+    from .grounding import match_symbols
+
+    if not getattr(symbols, "symbols", ()):
+        return {"grounding": []}
+    return {"grounding": [m.to_doc() for m in match_symbols(symbols, ds)]}
 
 
 # ----------------------------------------------------------------------------- one unit
@@ -166,6 +172,8 @@ def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> 
     entries = []
     for n in cfg.model_traces:
         mdata = collect_traces(sim, n, cfg.trace_length, seeds["model_data"][n], progress=False)
+        if not cfg.truth_symbols and "grounding" not in report:
+            report.update(grounding_f1(symbols, mdata))
         sds = symbols.to_symbolic_dataset(mdata)
         mdir = Path(work_dir) / f"model-N{n_symbol}-n{n}-run{run:03d}"
         learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False)
@@ -180,7 +188,6 @@ def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> 
                                        int(pseeds[i * len(starts) + k]))
                 values.append(run_episode(SimEnv(sim, symbols), planner, steps, start, method).value)
             entries.append({"model_traces": n, "method": method, "values": values, "mean": float(np.mean(values))})
-    report.update(grounding_f1(symbols, sym_data) if not cfg.truth_symbols else {})
     return {"schema": UNIT_SCHEMA, "config": cfg.fingerprint(), "symbol_data": n_symbol, "run": run,
             "entries": entries, "report": report, "seconds": time.monotonic() - t0}
 

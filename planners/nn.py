@@ -2,10 +2,15 @@
 
 Every state ``y_t`` of the training traces that has an action gets the value
 ``V(y_t) = sum_{d=0..3} 0.8^d r_{t+d}``, with ``r_{t+d} := r_T`` past the end. Given a new state, the
-planner retrieves the training states nearest to it under the permutation-invariant distance
+planner retrieves the training states closest to it under the permutation-invariant distance
 (continuous unary features for CONTINUOUS-NN, learned symbolic states for SYMBOLIC-NN), takes
-the one with the largest value among those at the minimum distance, and runs its action with the
-arguments mapped through the best permutation.
+the one with the largest value among them, and runs its action with the arguments mapped through
+the best permutation.
+
+"The closest states" (the paper's plural) are read as the ``k`` nearest, every state tied with the
+k-th included (option ``k``, default 3). With ``k = 1`` only the states at the minimum distance
+compete; in continuous space that is almost always one state, whose (random) training action is
+then run regardless of its value, which would make CONTINUOUS-NN a random policy.
 
 Reward indexing: in the paper's trace tuples ``<y_t, a_t, r_t>``, ``r_t`` is the reward that
 follows ``a_t``. Our trace files store with each step the reward of that step's *scene* (before the
@@ -23,7 +28,7 @@ import numpy as np
 
 from groundsym.logic import Atom
 from groundsym.planner import Decision, Observation, PlannerOption, PlanningModel, parse_planner_options, positive
-from groundsym.relational import nearest
+from groundsym.relational import Neighbours, nearest, scene_distance, state_distance
 
 DEPTH = 4        # d = 0..3
 NN_GAMMA = 0.8   # the paper's discount for these values
@@ -50,8 +55,18 @@ class Memory:
     values: np.ndarray
 
 
-def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.Generator
-) -> Decision:
+def k_nearest(distances: Sequence[tuple[float, dict[str, str]]], k: int, tol: float = 1e-9) -> Neighbours:
+    """The k nearest candidates (all ties with the k-th), in candidate order, with their mappings."""
+    d = np.array([x for x, _ in distances])
+    finite = np.flatnonzero(np.isfinite(d))
+    if not len(finite):
+        return Neighbours(float("inf"), (), ())
+    kth = np.sort(d[finite])[min(k, len(finite)) - 1]
+    idx = [int(i) for i in finite if d[i] <= kth + tol]
+    return Neighbours(float(d[finite].min()), tuple(idx), tuple(distances[i][1] for i in idx))
+
+
+def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.Generator) -> Decision:
     """The highest-valued nearest neighbour whose mapped action can be run; else a random one."""
     legal = set(observation.actions)
     order = sorted(range(len(hit.indices)), key=lambda j: (-memory.values[hit.indices[j]], hit.indices[j]))
@@ -71,7 +86,9 @@ def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.G
 
 class _NNPlanner:
     OPTIONS = (PlannerOption("depth", positive(int), DEPTH, "rewards summed into a state's value (paper: 4)"),
-               PlannerOption("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"))
+               PlannerOption("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"),
+               PlannerOption("k", positive(int), 3, "closest training states that compete by value "
+                             "(ties with the k-th included)"))
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
         self.opts = parse_planner_options(self.name, self.OPTIONS, options)
@@ -107,7 +124,10 @@ class ContinuousNNPlanner(_NNPlanner):
     def choose(self, observation: Observation) -> Decision:
         if observation.scene is None:
             raise ValueError("continuous-nn needs continuous observations (a simulation)")
-        hit = nearest(observation.scene, None, list(self.memory.states))
+        if self.opts["k"] == 1:
+            hit = nearest(observation.scene, None, list(self.memory.states))
+        else:
+            hit = k_nearest([scene_distance(observation.scene, s) for s in self.memory.states], self.opts["k"])
         return _choose(self.memory, hit, observation, self.rng)
 
 
@@ -137,5 +157,10 @@ class SymbolicNNPlanner(_NNPlanner):
         if observation.state is None:
             raise ValueError("symbolic-nn needs abstract states (learned symbols or a symbolic domain)")
         cands = list(zip(self.memory.states, self.memory.objects))
-        hit = nearest(observation.state, observation.objects, cands, predicates=self.predicates or None)
+        preds = self.predicates or None
+        if self.opts["k"] == 1:
+            hit = nearest(observation.state, observation.objects, cands, predicates=preds)
+        else:
+            hit = k_nearest([state_distance(observation.state, observation.objects, s, o, predicates=preds)
+                             for s, o in cands], self.opts["k"])
         return _choose(self.memory, hit, observation, self.rng)

@@ -39,7 +39,7 @@ def symbolic_model():
 
 
 def test_symbolic_nn_maps_the_best_tied_neighbours_action_onto_the_query_objects():
-    planner = SymbolicNNPlanner(symbolic_model(), {}, seed=0)
+    planner = SymbolicNNPlanner(symbolic_model(), {"k": "1"}, seed=0)
     objs = ("a", "b", "c")
     acts = tuple(Atom(p, (o,)) for p in PRIMS for o in objs)
     # "c in hand": the nearest states (distance 0) are both first states; the better one says drop on y
@@ -51,7 +51,7 @@ def test_symbolic_nn_maps_the_best_tied_neighbours_action_onto_the_query_objects
 
 
 def test_symbolic_nn_respects_relations_when_mapping():
-    planner = SymbolicNNPlanner(symbolic_model(), {}, seed=0)
+    planner = SymbolicNNPlanner(symbolic_model(), {"k": "1"}, seed=0)
     objs = ("a", "b", "c")
     acts = tuple(Atom(p, (o,)) for p in PRIMS for o in objs)
     d = planner.choose(Observation(objs, acts, state("(on b a)")))   # matches t1's second state, x->b, y->a
@@ -68,7 +68,7 @@ def test_continuous_nn_maps_arguments_through_the_assignment():
     f1 = [[0.0, 0.0, 0.02, 0.04], [0.3, 0.0, 0.06, 0.05], [0.0, 0.3, 0.02, 0.04]]
     tr = Trace(objs, [scene(objs, f0), scene(objs, f1, 0.04)], [A("(grab o2)")])
     model = PlanningModel(PRIMS, traces=Dataset([tr], ("x", "y", "z", "size"), PRIMS))
-    planner = ContinuousNNPlanner(model, {}, seed=0)
+    planner = ContinuousNNPlanner(model, {"k": "1"}, seed=0)
     q_objs = ("a", "b", "c")
     perm = [2, 0, 1]                      # a is the old o3, b the old o1, c the old o2 (+ a little noise)
     q = scene(q_objs, np.asarray(f0)[perm] + 0.001)
@@ -83,3 +83,21 @@ def test_needs_and_bad_observations():
     with pytest.raises(ValueError):
         planner.choose(Observation(("a",), (A("(grab a)"),), None))
     assert SymbolicNNPlanner.NEEDS == {"symbolic_traces"} and ContinuousNNPlanner.NEEDS == {"traces"}
+
+
+def test_k_nearest_states_compete_by_value():
+    """Three training states; the query is nearest to the worst one. With k = 1 its action runs;
+    with k = 3 the best-valued of the three (mapped through its own permutation) runs instead."""
+    objs = ("o1", "o2")
+    near = [[0.0, 0.0, 0.02, 0.04], [0.3, 0.0, 0.02, 0.04]]
+    mid = [[0.0, 0.0, 0.02, 0.04], [0.3, 0.05, 0.02, 0.04]]
+    far = [[0.0, 0.0, 0.02, 0.04], [0.3, 0.2, 0.02, 0.04]]
+    trs = [Trace(objs, [scene(objs, f), scene(objs, f, r)], [A(a)])
+           for f, r, a in ((near, 0.0, "(drop o1)"), (mid, 0.01, "(grab o1)"), (far, 0.05, "(grab o2)"))]
+    model = PlanningModel(PRIMS, traces=Dataset(trs, ("x", "y", "z", "size"), PRIMS))
+    q = scene(("a", "b"), near)
+    acts = tuple(Atom(p, (o,)) for p in PRIMS for o in ("a", "b"))
+    assert ContinuousNNPlanner(model, {"k": "1"}, 0).choose(Observation(("a", "b"), acts, None, q)).action == A("(drop a)")
+    best = ContinuousNNPlanner(model, {"k": "3"}, 0).choose(Observation(("a", "b"), acts, None, q))
+    assert best.action == A("(grab b)") and best.expected_value == pytest.approx(0.05 * 2.952)
+    assert ContinuousNNPlanner(model, {"k": "2"}, 0).choose(Observation(("a", "b"), acts, None, q)).action == A("(grab a)")
