@@ -5,8 +5,9 @@
 * **Effect discrimination.** The printed Eq. (2) *adds* ``sum |s_t - s_t+1|_1`` to a loss that is
   minimised, yet the text says the term *rewards* symbols that change when a primitive acts
   ("motor primitives always change object configurations ... learned symbols shall reflect these
-  changes"). We follow the text: each transition whose geometry changed while its abstract state
-  did not costs 1. (Rewarding raw Hamming flips instead gives dense, flickering symbols.)
+  changes"). We follow the text: each transition whose geometry changed (some feature moved by
+  more than ``change_tol`` of its spread, so physics jitter does not count) while its abstract
+  state did not costs 1. (Rewarding raw Hamming flips instead gives dense, flickering symbols.)
 * **Prediction.** ``-sum_t log P(s_t+1 | s_t, a_t)``: the nearest neighbour of ``(s_t, a_t)`` among
   the *other* transitions (same primitive, arguments mapped onto each other) predicts its
   successor, mapped through the best permutation; each literal is wrong with probability
@@ -52,6 +53,7 @@ class LossConfig:
     reg_weight: float = 1.0
     noise: float = 0.05            # per-literal probability that the NN prediction is wrong
     sigma_factor: float = 0.5      # reward sigma = this x the median reward step in the data
+    change_tol: float = 0.05       # geometry changed: some feature moved > this x its spread
     reward_sigma: float | None = None  # fixed sigma instead (None: from the data)
 
     def __post_init__(self) -> None:
@@ -127,7 +129,7 @@ def prepare(ds: Dataset, config: LossConfig = LossConfig(), path: str = "<traces
         raise UserError(f"{path}: traces: {ds.n_transitions} transitions, need at least 2 to learn symbols")
     features, pairs = dataset_arrays(ds)
     prims = sorted(ds.primitives)
-    pre, post, label, locks, reward, changed = [], [], [], [], [], []
+    pre, post, label, locks, reward = [], [], [], [], []
     base = 0
     for tr in ds.traces:
         index = {o: i for i, o in enumerate(tr.objects)}
@@ -140,17 +142,22 @@ def prepare(ds: Dataset, config: LossConfig = LossConfig(), path: str = "<traces
                 lock[index[arg]] |= 1 << k
             locks.append(lock)
             reward.append(tr.scenes[t].reward)
-            changed.append(bool(np.max(np.abs(np.asarray(tr.scenes[t].features) - tr.scenes[t + 1].features)) > 1e-6))
         base += len(tr.scenes)
-    if not any(changed):
-        raise UserError(f"{path}: traces: no transition changes the geometry; there is nothing to learn symbols from")
     m = features.shape[1]
     off = ~np.eye(m, dtype=bool)
     spread = lambda x: np.maximum(x.std(0), 1e-9)  # noqa: E731
+    unary_scale = spread(features.reshape(-1, features.shape[-1]))
+    pre_a, post_a = np.array(pre), np.array(post)
+    # physics jitters: a transition changed the geometry when some feature of some object moved by
+    # more than change_tol of that feature's spread (a failed grasp moves cubes by fractions of a mm)
+    moved = np.abs(features[post_a] - features[pre_a]) / unary_scale
+    changed = moved.max(axis=(1, 2)) > config.change_tol
+    if not changed.any():
+        raise UserError(f"{path}: traces: no transition changes the geometry; there is nothing to learn symbols from")
     sigma = config.reward_sigma or reward_sigma(ds, config.sigma_factor)
-    return LossData(features, pairs, np.array(pre), np.array(post), np.array(label), np.array(locks),
-                    np.array(reward, dtype=float), np.array(changed), sigma,
-                    spread(features.reshape(-1, features.shape[-1])), spread(pairs[:, off].reshape(-1, pairs.shape[-1])))
+    return LossData(features, pairs, pre_a, post_a, np.array(label), np.array(locks),
+                    np.array(reward, dtype=float), changed, sigma,
+                    unary_scale, spread(pairs[:, off].reshape(-1, pairs.shape[-1])))
 
 
 class Loss:

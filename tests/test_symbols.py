@@ -1,0 +1,135 @@
+"""Symbols: RBF truth (Eq. 4), vectorised abstraction, symbols.json, descriptions and grounding scores."""
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from groundsym.describe import describe_symbol
+from groundsym.errors import UserError
+from groundsym.grounding import match_symbols, scores
+from groundsym.logic import Atom
+from groundsym.symbols import Symbol, SymbolSet, load_symbols, save_symbols, share_true
+from groundsym.traces import Dataset, Trace
+from groundsym.world import Scene
+from tests.test_loss import intended_symbols, kinematic_tower
+
+NAMES = ("x", "y", "z", "size")
+
+
+def test_truth_is_activation_above_one_half():
+    s = Symbol("u1", 1, np.array([1.0, 2.0]), np.array([0.5, 2.0]))
+    rng = np.random.default_rng(0)
+    y = rng.normal([1, 2], [1, 3], size=(500, 2))
+    g = np.exp(-(((y[:, 0] - 1) / 0.5) ** 2 + ((y[:, 1] - 2) / 2.0) ** 2))  # Eq. (4) written out
+    assert np.array_equal(s.holds(y), g > 0.5)
+    assert s.activation(np.array([1.0, 2.0])) == 1.0
+    edge = np.array([1.0 + 0.5 * math.sqrt(math.log(2)) * 0.999, 2.0])
+    assert s.holds(edge) and not s.holds(edge + [0.01, 0])
+
+
+def test_abstraction_of_a_scene_by_hand():
+    objs = ("a", "b", "c")
+    feats = np.array([[0.0, 0.0, 0.05, 0.05], [0.0, 0.0, 0.0, 0.05], [0.5, 0.5, 0.4, 0.05]])
+    syms = SymbolSet(tuple(intended_symbols()), NAMES)
+    # u1: centre (0.3, 0, 0.45) widths 0.1: c is 0.2 away in x -> not in hand; move c to the hand
+    feats[2] = [0.3, 0.02, 0.46, 0.05]
+    state = syms.abstract_scene(Scene(objs, feats))
+    assert state == frozenset({Atom("u1", ("c",)), Atom("b1", ("a", "b"))})
+    assert syms.predicates == {"u1": 1, "b1": 2}
+
+
+def test_binary_symbols_never_hold_on_the_diagonal():
+    s = Symbol("b1", 2, np.zeros(4), np.full(4, 10.0))  # true for every pair
+    syms = SymbolSet((s,), NAMES)
+    state = syms.abstract_scene(Scene(("a", "b"), np.zeros((2, 4))))
+    assert state == frozenset({Atom("b1", ("a", "b")), Atom("b1", ("b", "a"))})
+
+
+def test_dataset_abstraction_matches_scene_by_scene():
+    ds = kinematic_tower(3, seed=2)
+    syms = SymbolSet(tuple(intended_symbols()), NAMES)
+    sds = syms.to_symbolic_dataset(ds)
+    assert sds.predicates == {"u1": 1, "b1": 2} and sds.n_transitions == ds.n_transitions
+    for tr, st in zip(ds.traces, sds.traces):
+        assert st.states == [syms.abstract_scene(s) for s in tr.scenes]
+        assert st.rewards == [s.reward for s in tr.scenes[:-1]] and st.final_reward == tr.scenes[-1].reward
+        # the fixture's truth: u1 is inhand, b1 is on
+        for s, state in zip(tr.scenes, st.states):
+            assert {a.predicate for a in state} <= {"u1", "b1"}
+            assert {Atom({"u1": "inhand", "b1": "on"}[a.predicate], a.args) for a in state} == set(s.truth)
+
+
+def test_symbols_file_round_trip(tmp_path):
+    syms = SymbolSet(tuple(intended_symbols()), NAMES)
+    path = tmp_path / "symbols.json"
+    save_symbols(path, syms, shares={"u1": 0.1}, extra={"loss": {"total": 1.0}})
+    back = load_symbols(path, NAMES)
+    assert back.predicates == syms.predicates and back.meta["loss"] == {"total": 1.0}
+    for a, b in zip(back.symbols, syms.symbols):
+        assert np.array_equal(a.centre, b.centre) and np.array_equal(a.widths, b.widths)
+    doc = json.loads(path.read_text())
+    assert doc["schema"] == "groundsym.symbols/1" and doc["symbols"][0]["share"] == 0.1
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d.update(schema="other"), "schema"),
+    (lambda d: d["symbols"][0].update(widths=[1, -1, 1, 1]), "symbols[0].widths"),
+    (lambda d: d["symbols"][1].update(centre=[0, 0]), "symbols[1].centre"),
+    (lambda d: d["symbols"][1].update(arity=3), "symbols[1].arity"),
+    (lambda d: d["symbols"][1].update(name="u1"), "symbols[1].name"),
+    (lambda d: d["symbols"][0].update(centre=[0, 0, "x", 0]), "symbols[0].centre"),
+])
+def test_bad_symbols_files_name_the_field(tmp_path, edit, field):
+    path = tmp_path / "symbols.json"
+    save_symbols(path, SymbolSet(tuple(intended_symbols()), NAMES))
+    doc = json.loads(path.read_text())
+    edit(doc)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(UserError, match=re.escape(f"symbols.json: {field}:")):
+        load_symbols(path)
+
+
+def test_feature_names_must_match(tmp_path):
+    path = tmp_path / "symbols.json"
+    save_symbols(path, SymbolSet(tuple(intended_symbols()), NAMES))
+    with pytest.raises(UserError, match="do not match the symbols' feature space"):
+        load_symbols(path, ("x", "y", "z", "mass"))
+
+
+def test_share_true_counts_objects_and_ordered_pairs():
+    syms = SymbolSet((Symbol("u1", 1, np.zeros(4), np.full(4, 0.1)), Symbol("b1", 2, np.zeros(4), np.full(4, 10.0))),
+                     NAMES)
+    feats = np.zeros((2, 3, 4))
+    feats[0, 0, 0] = 5.0
+    pairs = feats[:, :, None, :] - feats[:, None, :, :]
+    shares = share_true(syms, feats, pairs)
+    assert shares["u1"] == pytest.approx(5 / 6) and shares["b1"] == 1.0
+
+
+def test_describe_in_words():
+    on = intended_symbols()[1]
+    text = describe_symbol(on, ("dx", "dy", "dz", "dsize"))
+    assert text.startswith("b1(X,Y): X above Y")
+    assert "|dx| under 1.7 cm" in text and "dz between 3.3 and 6.7 cm" in text
+    data = np.random.default_rng(0).uniform(-0.1, 0.1, (200, 4))
+    assert "dsize" not in describe_symbol(on, ("dx", "dy", "dz", "dsize"), data)  # 100 cm wide: unconstraining
+
+
+def test_grounding_scores_both_argument_orders():
+    assert scores(np.array([1, 1, 0, 0], bool), np.array([1, 0, 1, 0], bool)) == (0.5, 0.5, 0.5)
+    ds = kinematic_tower(4, seed=5)
+    under = SymbolSet(tuple(intended_symbols(swap=True)), NAMES)
+    m = {x.arity: x for x in match_symbols(under, ds)}
+    assert (m[1].best_match, m[1].f1) == ("inhand", 1.0)
+    assert (m[2].best_match, m[2].argument_order, m[2].f1) == ("on", "swapped", 1.0)
+
+
+def test_grounding_needs_truth():
+    ds = kinematic_tower(1, seed=5)
+    bare = Dataset([Trace(t.objects, [Scene(s.objects, s.features, s.reward) for s in t.scenes], t.actions)
+                    for t in ds.traces], ds.feature_names, ds.primitives)
+    with pytest.raises(UserError, match="no ground-truth"):
+        match_symbols(SymbolSet(tuple(intended_symbols()), NAMES), bare)
