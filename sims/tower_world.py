@@ -406,7 +406,7 @@ class TowerWorld:
         self.settle()
 
     def _hang(self) -> float:
-        """How far the held object reaches below the TCP (0 with an empty hand)."""
+        """How far below the TCP the hand reaches: the fingertips, or the held object's bottom."""
         if self.held is None:
             return TIP_BELOW_TCP
         b = self.bodies[self.held]
