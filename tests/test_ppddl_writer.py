@@ -51,10 +51,32 @@ TOWER_RULES = RuleSet((
 ), ())
 PREDICATES = {"clear": 1, "inhand": 1, "on": 2, "ontable": 1}
 
+# domains/reference/tower/domain.ppddl as NID rules (the true rules PRADA can plan with); the file
+# domains/reference/tower/rules.ppddl is exactly their export, and must behave as domain.ppddl does.
+TOWER_RULES_HEADER = (
+    "The tower cell (domain.ppddl beside this file) as NID rules, exported by groundsym.ppddl.convert\n"
+    "from TOWER_REFERENCE_RULES in tests/test_ppddl_writer.py; a test checks that it gives the same\n"
+    "distributions as domain.ppddl on every state the cell can reach. closeHandAround_r3 (a held\n"
+    "object) only blocks: with it, a full hand makes two rules cover, so nothing happens.")
+TOWER_REFERENCE_RULES = RuleSet((
+    rule("(closeHandAround ?x)", ["(clear ?x)", "(ontable ?x)"],
+         [(0.9, ["(inhand ?x)", "(not (ontable ?x))"]), (0.1, [])], 0.0),
+    rule("(closeHandAround ?x)", ["(clear ?x)", "(on ?x ?y)"],
+         [(0.9, ["(inhand ?x)", "(not (on ?x ?y))", "(clear ?y)"]), (0.1, [])], 0.0),
+    rule("(closeHandAround ?x)", ["(inhand ?y)"], [(1.0, [])], 0.0),
+    rule("(openHandOver ?x)", ["(inhand ?x)"], [(1.0, ["(not (inhand ?x))", "(ontable ?x)"])], 0.0),
+    rule("(openHandOver ?x)", ["(inhand ?y)", "(clear ?x)"],
+         [(0.8, ["(on ?y ?x)", "(not (inhand ?y))", "(not (clear ?x))"]),
+          (0.2, ["(ontable ?y)", "(not (inhand ?y))"])], 0.0),
+    rule("(openHandOver ?x)", ["(inhand ?y)", "(not (clear ?x))"],
+         [(1.0, ["(ontable ?y)", "(not (inhand ?y))"])], 0.0),
+), ())
+
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_print_then_parse_is_identity(path):
-    domain, problem = load(path.parent / ("domain" + path.suffix), path)
+    is_domain = path.stem in ("domain", "rules")
+    domain, problem = load(path if is_domain else path.parent / ("domain" + path.suffix), None if is_domain else path)
     d2 = parse_domain(str(domain))
     assert d2 == domain
     if problem is not None:
@@ -177,3 +199,27 @@ def test_outside_the_rule_subset_is_refused_in_one_line():
     domain, _ = load(REF / "tower/domain.ppddl")
     with pytest.raises(UserError, match="outside the rule subset"):
         domain_to_rules(domain)
+
+
+def test_tower_rules_file_is_the_export_of_the_reference_rules():
+    text = (REF / "tower/rules.ppddl").read_text()
+    want = rules_to_domain(TOWER_REFERENCE_RULES, PREDICATES, "tower-cell", comment=TOWER_RULES_HEADER)
+    assert text == str(want)
+    rs = domain_to_rules(parse_domain(text))
+    assert len(rs.rules) == len(TOWER_REFERENCE_RULES.rules)
+
+
+def test_tower_rules_behave_as_the_tower_domain_on_reachable_states():
+    import numpy as np
+    from groundsym.ppddl.simulate import simulate_traces
+
+    natural, problem = load(REF / "tower/domain.ppddl", REF / "tower/p02.ppddl")
+    as_rules, _ = load(REF / "tower/rules.ppddl", REF / "tower/p02.ppddl")
+    a, b = Task(natural, problem), Task(as_rules, problem)
+    states = {s for tr in simulate_traces(a, 40, 25, np.random.default_rng(1), 0.2).traces for s in tr.states}
+    assert len(states) > 200
+    for s in states:
+        for prim in a.primitive_actions():
+            da = {x.state: x.prob for x in a.distribution(s, prim)} or {s: 1.0}
+            db = {x.state: x.prob for x in b.distribution(s, prim)} or {s: 1.0}
+            assert da.keys() == db.keys() and all(da[k] == pytest.approx(db[k]) for k in da), (sorted(s), prim)
