@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 from ..errors import UserError
@@ -40,7 +42,24 @@ def sim_options(args: argparse.Namespace) -> dict[str, str]:
 
 
 def output_path(text: str) -> Path:
+    """argparse ``type=`` for an output file: a directory is refused as a usage error (exit 2)."""
     p = Path(text)
     if p.exists() and p.is_dir():
-        raise UserError(f"{p}: is a directory, expected a file path")
+        raise argparse.ArgumentTypeError(f"{p}: is a directory, expected a file path")
     return p
+
+
+def writable_output(text: str | Path) -> Path:
+    """The path, once a file is known to be writable there, so a typo fails before minutes of work."""
+    path = Path(text)
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory, expected a file path")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path.parent):
+            pass
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UserError(f"{path}: cannot write (the file is read-only)")
+    return path

@@ -8,38 +8,18 @@ and the command line in ``meta``.
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
-from pathlib import Path
 
 from ..collect import collect_traces
-from ..errors import UserError
 from ..provenance import provenance
 from ..registry import make_sim
 from ..traces import write_traces
-from ._common import add_sim_args, nonneg_int, positive_int, sim_options
+from ._common import add_sim_args, nonneg_int, positive_int, sim_options, writable_output
 
 NAME = "collect"
 HELP = "record traces of random primitives from a simulation"
 DESCRIPTION = (HELP + ". Trace i starts from a random start state and runs --length uniformly random primitives; "
                "everything derives from --seed, so the same seed and options give the same file.")
 ORDER = 10
-
-
-def writable_output(text: str) -> Path:
-    """The path, once a file is known to be writable there, so a typo fails before minutes of work."""
-    path = Path(text)
-    if path.is_dir():
-        raise UserError(f"{path}: is a directory, expected a file path")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path.parent):
-            pass
-    except OSError as exc:
-        raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
-    if path.exists() and not os.access(path, os.W_OK):
-        raise UserError(f"{path}: cannot write (the file is read-only)")
-    return path
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -7,7 +7,7 @@ import argparse
 from ..collect import collect_trace, trace_seeds
 from ..registry import make_sim
 from ._common import add_sim_args, nonneg_int, positive_int, sim_options
-from .collect import writable_output
+from ._common import writable_output
 
 NAME = "render"
 HELP = "draw a simulation's scene as a PNG"
