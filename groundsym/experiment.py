@@ -165,7 +165,8 @@ def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> 
     sim = _sim(cfg)
     seeds = unit_seeds(cfg, n_symbol, run)
     n_traces = max(1, math.ceil(n_symbol / cfg.trace_length))
-    sym_data = collect_traces(sim, n_traces, cfg.trace_length, seeds["symbol_data"], progress=False)
+    sym_data = None if cfg.truth_symbols else \
+        collect_traces(sim, n_traces, cfg.trace_length, seeds["symbol_data"], progress=False)
     symbols, report = learn_symbols(sym_data, cfg, seeds["anneal"], sim)
     steps = cfg.steps or int(sim.episode_length)
     starts = start_seeds(cfg, run)

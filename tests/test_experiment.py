@@ -14,7 +14,7 @@ from groundsym.experiment import (EvalConfig, aggregate, bar_chart, evaluate, ma
                                   write_outputs)
 
 CFG = EvalConfig(sim="tower", methods=("random", "prada"), symbol_data=(10,), model_traces=(1,), seed=5,
-                 steps=3, starts=1, truth_symbols=("inhand", "on"),
+                 steps=3, starts=1, truth_symbols=("inhand", "on"), trace_length=6,
                  planner_options={"prada": {"samples": "100"}})
 
 
