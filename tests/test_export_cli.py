@@ -151,3 +151,25 @@ def test_learned_predicates_say_what_they_mean(bw_model, tmp_path):
     on = next(l for l in lines if l.strip().startswith("(on "))
     assert "x=0.1±0.05" in clear and "25.0%" in clear and "one object" in clear
     assert "dz=0.05±0.01" in on and "12.5%" in on and "ordered pair" in on
+    assert "X above Y" in on and "z between 28.3 and 31.7 cm" in clear      # groundsym.describe's words
+
+
+def test_scene_from_continuous_traces_is_abstracted_with_the_symbols(bw_model, tmp_path):
+    from groundsym.symbols import Symbol, SymbolSet, save_symbols
+    from groundsym.traces import read_traces
+
+    data = Path(__file__).parent / "data" / "tower_small.json"
+    scene = read_traces(data).traces[1].scenes[3]
+    model = tmp_path / "model"
+    model.mkdir()
+    for f in ("rules.json", "reward.json"):
+        (model / f).write_bytes((bw_model / f).read_bytes())
+    # "low": a resting cube's centre height, whatever x, y and size
+    full = SymbolSet((Symbol("low", 1, np.array([0.5, 0.5, 0.02, 0.04]), np.array([9.0, 9.0, 0.01, 9.0])),),
+                     ("x", "y", "z", "size"))
+    save_symbols(model / "symbols.json", full)
+    assert main(["export-domain", str(model), "-o", str(tmp_path / "o"), "--scene", f"{data}:1:3"]) == 0
+    _, problem = load(tmp_path / "o" / "domain.ppddl", tmp_path / "o" / "problem.ppddl")
+    low = full.symbols[0]
+    want = {Atom("low", (o,)) for o, y in zip(scene.objects, scene.features) if low.holds(np.asarray(y))}
+    assert want and {a for a in problem.init if a.predicate == "low"} == want

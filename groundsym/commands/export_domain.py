@@ -45,29 +45,44 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 # ------------------------------------------------------------------------------ predicate comments
 def predicate_comments(model: Model) -> dict[str, str]:
-    """What each learned predicate means geometrically (symbol engineer's ``describe`` when present)."""
+    """What each learned predicate means geometrically: the symbol module's plain-words description
+    (groundsym.describe, when present), then the RBF centre ± width per feature and the share of
+    the data where it holds, from ``symbols.json``."""
     path = model.path / SYMBOLS
     if not path.exists():
         return {}
-    try:
-        from .. import describe as describe_mod  # type: ignore[attr-defined]
-        symbols = model.symbols
-        out = {s.name: " ".join(str(describe_mod.describe(s, symbols)).split()) for s in symbols.symbols}
-        if all(out.values()):
-            return out
-    except Exception:  # noqa: BLE001 - the describer is optional; fall back to the parameters
-        pass
     doc = read_json(path)
     names = doc.get("feature_names") or []
     pair = doc.get("pair_feature_names") or [f"d{n}" for n in names]
+    shares = {s["name"]: s["share"] for s in doc.get("symbols") or [] if isinstance(s.get("share"), (int, float))}
+    words = _described(model, shares)
     out = {}
     for s in doc.get("symbols") or []:
         space = names if s.get("arity") == 1 else pair
         dims = ", ".join(f"{n}={c:.3g}±{w:.3g}" for n, c, w in zip(space, s.get("centre", []), s.get("widths", [])))
         what = "of one object" if s.get("arity") == 1 else "of an ordered pair (features of ?x1 minus ?x2)"
-        share = f"; holds for {100 * s['share']:.1f}% of the data" if isinstance(s.get("share"), (int, float)) else ""
-        out[s["name"]] = f"learned RBF symbol {what}: centre±width {dims}{share}"
+        share = f"; holds for {100 * shares[s['name']]:.1f}% of the data" if s["name"] in shares else ""
+        plain = f"{words[s['name']]}; " if s["name"] in words else ""
+        out[s["name"]] = f"{plain}learned RBF symbol {what}: centre±width {dims}{share}"
     return out
+
+
+def _described(model: Model, shares: dict[str, float]) -> dict[str, str]:
+    """``groundsym.describe`` lines by symbol name; {} when that module or the data is missing."""
+    try:
+        from ..describe import describe
+        from ..symbols import dataset_arrays
+    except ImportError:
+        return {}
+    symbols = model.symbols
+    features = pairs = None
+    if model.traces is not None:
+        try:
+            features, pairs = dataset_arrays(model.traces)
+        except UserError:        # traces of different sizes: describe without the data
+            features = pairs = None
+    lines = describe(symbols, features, pairs)
+    return {s.name: line.split(": ", 1)[-1] for s, line in zip(symbols.symbols, lines)}
 
 
 # ------------------------------------------------------------------------------ initial state
@@ -206,7 +221,11 @@ def run(args: argparse.Namespace) -> int:
     for r in model.rules.rules:
         for l in (*r.context, *(c for o in r.outcomes for c in o.changes)):
             predicates.setdefault(l.atom.predicate, l.atom.arity)
+    if (model.path / SYMBOLS).exists():
+        predicates.update(model.symbols.predicates)
     objects, state, source = initial_state(model, args.scene)
+    for a in state:                       # a scene file may know predicates no rule uses
+        predicates.setdefault(a.predicate, a.arity)
     if args.goal:
         goal, goal_note = parse_goal(args.goal, predicates, objects), "goal: given with --goal"
     else:
