@@ -269,4 +269,4 @@ def ppddl_model(domain: Any, problem: Any, task: Any, need_rules: bool = True) -
         rules = None
     preds = {p.name: p.arity for p in domain.predicates}
     return PlanningModel(task.primitives, predicates=preds, rules=rules, goal=goal_of(problem),
-                         domain=domain, problem=problem, ppddl=(domain, problem), gamma=1.0)
+                         domain=domain, problem=problem, ppddl=(domain, problem), gamma=0.95)

@@ -423,7 +423,8 @@ class PradaPlanner:
     OPTIONS = (
         PlannerOption("horizon", positive(int), 4, "look-ahead in primitives (libPRADA demos: 4)"),
         PlannerOption("samples", positive(int), 500, "action sequences sampled per decision"),
-        PlannerOption("gamma", unit_interval, 0.95, "discount of the expected rewards"),
+        PlannerOption("gamma", unit_interval, None, "discount of the expected rewards (default: the task's, "
+                      "e.g. the tower's 0.8; 0.95 as libPRADA on a PPDDL domain)"),
         PlannerOption("noise_softener", unit_interval, 0.2, "scales how much a rule's noise outcome "
                       "spreads over changeable atoms (libPRADA demos: 0.2)"),
         PlannerOption("variant", _variant, "prada", "prada, or a-prada (shorten the best sequence)"),
@@ -455,8 +456,9 @@ class PradaPlanner:
                 reward: RewardFn = goal_reward(self.model.goal, g)
             else:
                 reward = model_reward(self.model.reward, g, np.random.default_rng(0))
+            gamma = self.opts["gamma"] if self.opts["gamma"] is not None else self.model.gamma
             self._cores[objects] = PradaCore(g, reward, self.opts["horizon"], self.opts["samples"],
-                                             self.opts["gamma"], self.opts["choice"])
+                                             gamma, self.opts["choice"])
         return self._cores[objects]
 
     def choose(self, observation: Observation) -> Decision:
