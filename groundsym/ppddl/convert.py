@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import UserError
 from ..logic import Atom, Literal
 from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
-from .ast import (NO_EFFECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
+from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
                   Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
 
 NOISE_PREDICATE = "noise-happened"
@@ -48,13 +48,11 @@ _RULE_NAME = re.compile(r"^(.+)_r(\d+)$")
 def requirements(domain: Domain) -> tuple[str, ...]:
     """Exactly the PDDL requirement flags the domain's actions use."""
     found: set[str] = set()
-    for t in domain.types:
+    typed = [x.type for p in (*domain.predicates, *domain.functions) for x in p.params]
+    if domain.types or any(t != OBJECT for t in typed) or any(c.type != OBJECT for c in domain.constants):
         found.add(":typing")
-    for p in (*domain.predicates, *domain.constants):
-        if isinstance(p, Predicate) and any(x.type != "object" for x in p.params):
-            found.add(":typing")
     for a in domain.actions:
-        if any(x.type != "object" for x in a.parameters):
+        if any(x.type != OBJECT for x in a.parameters):
             found.add(":typing")
         _formula_features(a.precondition, True, found)
         _effect_features(a.effect, found)
@@ -79,9 +77,11 @@ def _formula_features(f: Formula, positive: bool, out: set[str]) -> None:
         _formula_features(f.left, not positive, out)
         _formula_features(f.right, positive, out)
     elif isinstance(f, (Forall, Exists)):
-        universal = isinstance(f, Forall) == positive
-        out.add(":universal-preconditions" if universal else ":existential-preconditions")
-        if any(p.type != "object" for p in f.params):
+        # the quantifier as written, and as it acts under an odd number of negations
+        out.add(":universal-preconditions" if isinstance(f, Forall) else ":existential-preconditions")
+        if not positive:
+            out.add(":existential-preconditions" if isinstance(f, Forall) else ":universal-preconditions")
+        if any(p.type != OBJECT for p in f.params):
             out.add(":typing")
         _formula_features(f.body, positive, out)
 
