@@ -60,25 +60,22 @@ def run_seeds(seed: int, run: int, traces: list[int]) -> dict[str, Any]:
 
 
 def learn_symbols(args: argparse.Namespace, seeds: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-    """1 unary + 3 binary symbols from ``--symbol-games`` random games in 5-pin worlds."""
+    """1 unary + 3 binary symbols from ``--symbol-games`` random games in 5-pin worlds, graded on them."""
     if args.truth_symbols:
         from groundsym.experiment import TruthSymbols
 
         return TruthSymbols(TRUTH, dict(BowlingSim.truth_predicates)), {"symbols": "truth"}
-    from groundsym.anneal import AnnealConfig, learn_symbol_set
+    from bowling_symbols import anneal_symbols    # the sibling script (examples/ is on sys.path)
+
+    from groundsym.grounding import match_symbols
 
     with BowlingSim(pins=args.symbol_pins) as small:
         data = collect_traces(small, args.symbol_games, 2, seeds["symbol_data"], progress=False)
-    acfg = AnnealConfig(unary=args.unary, binary=args.binary, evals=args.evals, restarts=args.restarts)
-    result = learn_symbol_set(data, acfg, seed=seeds["anneal"], workers=1, progress=False)
-    report: dict[str, Any] = {"symbols": "learned", "loss": float(result.loss), "text": repr(result.symbols)}
-    try:
-        from groundsym.grounding import grounding_report
-
-        report["grounding"] = [dict(r) for r in grounding_report(result.symbols, data)]
-    except ImportError:
-        pass
-    return result.symbols, report
+    symbols, result = anneal_symbols(data, unary=args.unary, binary=args.binary, evals=args.evals,
+                                     restarts=args.restarts, seed=seeds["anneal"],
+                                     transition_weight=args.transition_weight, progress=False)
+    return symbols, {"symbols": "learned", "loss": result.terms.to_doc(), "text": repr(symbols),
+                     "grounding_on_training_data": [m.to_doc() for m in match_symbols(symbols, data)]}
 
 
 def play_run(args: argparse.Namespace, run: int, traces: list[int], sim: BowlingSim) -> dict[str, Any]:
@@ -110,7 +107,7 @@ def play_run(args: argparse.Namespace, run: int, traces: list[int], sim: Bowling
 def fingerprint(args: argparse.Namespace) -> str:
     """What decides the numbers; a resumed run must match it."""
     keys = ("seed", "traces", "games", "symbol_games", "symbol_pins", "evals", "restarts", "unary", "binary",
-            "truth_symbols", "methods")
+            "truth_symbols", "methods", "transition_weight")
     doc = {k: getattr(args, k) for k in keys}
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=list).encode()).hexdigest()[:16]
 
@@ -176,6 +173,8 @@ def main() -> int:
     ap.add_argument("--restarts", type=int, default=4)
     ap.add_argument("--unary", type=int, default=1)
     ap.add_argument("--binary", type=int, default=3)
+    ap.add_argument("--transition-weight", type=float, default=1.0,
+                    help="weight of the symbol loss's prediction term (see examples/bowling_symbols.py)")
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--truth-symbols", action="store_true",
                     help="diagnosis: plan with the sim's upright/sameColumn/behind instead of learned symbols")
@@ -201,7 +200,8 @@ def main() -> int:
     bar.close()
     rows = summarise(units, traces, args.methods)
     symbols = "the simulator's true relations" if args.truth_symbols else \
-        f"{args.unary} unary + {args.binary} binary learned symbols ({args.evals} evals)"
+        f"{args.unary} unary + {args.binary} binary learned symbols ({args.evals} evals, " \
+        f"prediction weight {args.transition_weight:g})"
     title = f"Bowling (paper Fig. 4(b)), {args.runs} runs x {args.games} games, {symbols}"
     doc = {"rows": rows, "setup": {k: v for k, v in vars(args).items()}, "fingerprint": key,
            "runs": [{"run": u["run"], "report": u["report"], "seconds": u["seconds"]} for u in units],
