@@ -60,3 +60,23 @@ def test_user_errors_are_one_line(argv, message, capsys):
     assert plan(*argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+
+
+@pytest.mark.slow
+def test_the_whole_loop_in_the_tower_sim_with_a_learned_model(tmp_path, capsys):
+    """collect -> learn (small budget) -> plan with every model-based planner in the real sim."""
+    traces, model = tmp_path / "traces.json", tmp_path / "model"
+    assert main(["collect", "--sim", "tower", "--traces", "3", "--length", "10", "--seed", "2", "-o", str(traces),
+                 "--quiet"]) == 0
+    assert main(["learn", str(traces), "-o", str(model), "--evals", "400", "--restarts", "2", "--workers", "1",
+                 "--quiet"]) == 0
+    for planner in ("prada", "symbolic-nn", "continuous-nn"):
+        out = tmp_path / f"{planner}.json"
+        assert plan("--sim", "tower", "--model", model, "--planner", planner, "--steps", 3, "--seed", 4,
+                    "-o", out) == 0
+        ep = json.loads(out.read_text())["episodes"][0]
+        assert len(ep["steps"]) == 3
+        preds = {s["name"] for s in json.loads((model / "symbols.json").read_text())["symbols"]}
+        for s in ep["steps"]:
+            assert s["state"] is not None and all(a.split()[0].strip("(") in preds for a in s["state"])
+    assert "expected value" in capsys.readouterr().out
