@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dataclasses import replace
+
 from groundsym.cli import main
+from groundsym.ppddl.ast import AndEffect
 from groundsym.logic import Atom, parse_atom
 from groundsym.ppddl.parser import load
 from groundsym.ppddl.simulate import Task, simulate_traces, successor_distribution
@@ -23,13 +26,14 @@ REF = Path(__file__).parent.parent / "domains" / "reference"
 # that drops the deterministic part, against PPDDL's semantics; test_hand_computed_exploding_put_down
 # checks that domain by hand instead. plado cannot read our tower reference (a `when` over a
 # conjunction inside `forall` inside `probabilistic` trips an assertion in its normaliser):
-# test_tower_reference_by_hand covers it.
+# test_tower_reference_by_hand covers it; its rule form (rules.ppddl) is compared.
 CASES = [
     (DATA / "ippc2006/blocksworld/domain.pddl", DATA / "ippc2006/blocksworld/p01.pddl"),
     (DATA / "ippc2006/tireworld/domain.pddl", DATA / "ippc2006/tireworld/p01.pddl"),
     (DATA / "ippc2008/blocksworld/domain.pddl", DATA / "ippc2008/blocksworld/p02.pddl"),
     (DATA / "ippc2008/triangle-tireworld/domain.pddl", DATA / "ippc2008/triangle-tireworld/p01.pddl"),
     (REF / "blocksworld/domain.ppddl", REF / "blocksworld/p01.ppddl"),
+    (REF / "tower/rules.ppddl", REF / "tower/p01.ppddl"),
 ]
 
 
@@ -66,7 +70,7 @@ class Plado:
         return {parse_atom(self.t.dump_action(*a)) for a in self.aag(self.state(atoms))}
 
     def successors(self, atoms: frozenset, action: Atom) -> dict[tuple[frozenset, float], float]:
-        aid = next(i for i, a in enumerate(self.t.actions) if a.name == action.predicate)
+        aid = next(i for i, a in enumerate(self.t.actions) if a.name == action.predicate.lower())
         s = self.state(atoms)
         r0 = s.fluents[self.reward].get((), 0.0) if self.reward is not None else 0.0
         out: dict[tuple[frozenset, float], float] = {}
@@ -75,6 +79,10 @@ class Plado:
             key = (self.atoms(succ), round(r, 9))
             out[key] = out.get(key, 0.0) + float(prob)
         return out
+
+
+def _low(a: Atom) -> Atom:
+    return Atom(a.predicate.lower(), a.args)
 
 
 def _fluent(task: Task, state: frozenset) -> frozenset:
@@ -110,15 +118,20 @@ def test_applicable_actions_and_successors_match_plado(domain_path, problem_path
     domain, problem = load(domain_path, problem_path)
     plain_problem = tmp_path / "problem.pddl"
     plain_problem.write_text(str(problem))            # plado reads one define per file
-    ref = Plado(domain_path, plain_problem)
+    # plado 0.1 crashes on an action whose effect is empty (the tower rules' blocking rule): it
+    # gets the domain without those, and they are left out of the comparison
+    noop = {a.name for a in domain.actions if a.effect == AndEffect(())}
+    plado_domain = tmp_path / "domain.pddl"
+    plado_domain.write_text(str(replace(domain, actions=tuple(a for a in domain.actions if a.name not in noop))))
+    ref = Plado(plado_domain, plain_problem)
     task = Task(domain, problem)
     rng = np.random.default_rng(3)
     state = task.initial_state
     compared = 0
-    ground = {Atom(a.name, args) for a in domain.actions for args in task.groundings(a.name)}
+    ground = {Atom(a.name, args) for a in domain.actions if a.name not in noop for args in task.groundings(a.name)}
     for _ in range(25):
         ours = {g for g in ground if task.applicable(state, g)}
-        assert ours == ref.applicable(_fluent(task, state))
+        assert {_low(g) for g in ours} == ref.applicable(_fluent(task, state))     # plado lower-cases names
         if not ours:                                  # dead end: walk again from the start
             state = task.initial_state
             continue
