@@ -62,7 +62,7 @@ def _printer(quiet: bool):
     def show(step: Any) -> None:
         if quiet:
             return
-        state = " ".join(step.state) if step.state is not None else "-"
+        state = (" ".join(step.state) or "(no atom true)") if step.state is not None else "-"
         print(f"t={step.t:<3d} state: {state}")
         ev = f"{step.expected_value:.4g}" if np.isfinite(step.expected_value) else "-"
         print(f"      do {step.action}  expected value {ev}  reward {step.reward:.4g}")
