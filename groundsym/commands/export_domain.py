@@ -181,6 +181,9 @@ def derived_goal(model: Model, objects: tuple[str, ...]) -> tuple[list[Literal],
         return [], "no goal: no state of the data is over this scene's objects"
     state = next(s for r, s in scored if r == best and all(x in objects for a in s for x in a.args))
     atoms = sorted(a for a in state if not keep or a.predicate in keep)
+    if not atoms:
+        return [], (f"no goal: the highest-reward abstract state in the data (reward {best:.4g}) has no true atoms"
+                    + (" over the reward model's predicates" if keep else "") + ", so there is nothing to reach")
     note = (f"goal: the highest-reward abstract state in the data (reward {best:.4g} of "
             f"{min(rewards):.4g}..{max(rewards):.4g})" + (", restricted to the reward model's predicates" if keep else ""))
     return [Literal(a) for a in atoms], note
