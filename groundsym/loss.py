@@ -170,6 +170,8 @@ class Loss:
         self._pair_cache: dict[tuple[bytes, bytes], tuple[float, np.ndarray | None]] = {}
         self._groups: dict[bytes, np.ndarray] = {}
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
+        self._truth_cache: dict[tuple, np.ndarray] = {}
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -177,18 +179,39 @@ class Loss:
         d, c = self.data, self.config
         unary = [s for s in symbols if s.arity == 1]
         binary = [s for s in symbols if s.arity == 2]
-        u = unary_truth(unary, d.features)
-        b = binary_truth(binary, d.pairs)
+        u = self._truth(unary, d.features, unary_truth)
+        b = self._truth(binary, d.pairs, binary_truth)
         ku, kb = active_columns(u, b)
         u, b = u[..., ku].astype(np.uint8), b[..., kb].astype(np.uint8)
         reg = sum(_width_penalty(s.widths, d.unary_scale) for s, keep in zip(unary, ku) if keep)
         reg += sum(_width_penalty(s.widths, d.pair_scale) for s, keep in zip(binary, kb) if keep)
-        same = (u[d.pre] == u[d.post]).all(axis=(1, 2)) & (b[d.pre] == b[d.post]).all(axis=(1, 2, 3))
-        effect = float(np.sum(same & d.changed))
-        trans = self._transition_nll(u, b, len(unary), len(binary))
-        rew = self._reward_nll(u, b)
+        # the other terms depend on the abstraction only: annealing moves often leave it unchanged
+        key = (len(unary), len(binary), u.shape, b.shape, np.packbits(u).tobytes(), np.packbits(b).tobytes())
+        terms = self._abstraction_cache.get(key)
+        if terms is None:
+            same = (u[d.pre] == u[d.post]).all(axis=(1, 2)) & (b[d.pre] == b[d.post]).all(axis=(1, 2, 3))
+            terms = (float(np.sum(same & d.changed)), self._transition_nll(u, b, len(unary), len(binary)),
+                     self._reward_nll(u, b))
+            if len(self._abstraction_cache) >= 20_000:
+                self._abstraction_cache.clear()
+            self._abstraction_cache[key] = terms
+        effect, trans, rew = terms
         return LossTerms(c.effect_weight * effect, c.transition_weight * trans, c.reward_weight * rew,
                          c.reg_weight * reg)
+
+    def _truth(self, symbols: list[Symbol], space: np.ndarray, fn) -> np.ndarray:
+        """Truth arrays, one symbol at a time, memoised: a move changes one symbol of a candidate."""
+        cols = []
+        for s in symbols:
+            key = (s.arity, s.centre.tobytes(), s.widths.tobytes())
+            col = self._truth_cache.get(key)
+            if col is None:
+                if len(self._truth_cache) >= 512:
+                    self._truth_cache.pop(next(iter(self._truth_cache)))
+                col = self._truth_cache[key] = fn([s], space)[..., 0]
+            cols.append(col)
+        shape = space.shape[:-1] + (len(symbols),)
+        return np.stack(cols, axis=-1) if cols else np.zeros(shape, dtype=bool)
 
     # -- nearest neighbours
     def neighbours(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray) -> "Neighbourhood":
@@ -346,13 +369,11 @@ class Neighbourhood:
 
 
 def group_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Ids of equal rows, numbered by first occurrence: (index of each group's first row, id per row)."""
-    ids: dict[bytes, int] = {}
-    inv = np.fromiter((ids.setdefault(r, len(ids)) for r in map(bytes, np.ascontiguousarray(rows))),
-                      dtype=np.int64, count=len(rows))
-    first = np.full(len(ids), len(rows), dtype=np.int64)
-    np.minimum.at(first, inv, np.arange(len(rows)))
-    return first, inv
+    """Ids of equal rows (in sorted order of the rows): (index of each group's first row, id per row)."""
+    rows = np.ascontiguousarray(rows)
+    void = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+    _, first, inv = np.unique(void, return_index=True, return_inverse=True)
+    return first, inv.ravel()
 
 
 def _group_logmeanexp(group: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:

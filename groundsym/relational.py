@@ -564,6 +564,30 @@ def _twins(ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
     return same | np.eye(m, dtype=bool)[None]
 
 
+def _untwinned_ties(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray, perms: np.ndarray) -> np.ndarray:
+    """States where two objects of one colour are not interchangeable.
+
+    Interchangeability (the transposition is an automorphism) is an equivalence relation, so it is
+    enough to test neighbours in colour order: (i j) and (j k) automorphisms make (i k) one too.
+    """
+    n, m = col.shape
+    rows = np.arange(n)[:, None]
+    i, j = perms[:, :-1], perms[:, 1:]
+    tied = col[rows, i] == col[rows, j]
+    cand = np.flatnonzero(tied.any(1))
+    if not len(cand):
+        return cand
+    i, j, tied, r = i[cand], j[cand], tied[cand], cand[:, None]
+    e, et = ecode[cand], ecode[cand].transpose(0, 2, 1)
+    rr = np.arange(len(cand))[:, None]
+    k = np.arange(m)[None, None, :]
+    other = (k != i[..., None]) & (k != j[..., None])
+    same_rows = ((e[rr, i] == e[rr, j]) | ~other).all(-1)
+    same_cols = ((et[rr, i] == et[rr, j]) | ~other).all(-1)
+    twin = (ucode[r, i] == ucode[r, j]) & same_rows & same_cols & (e[rr, i, j] == e[rr, j, i])
+    return cand[(tied & ~twin).any(1)]
+
+
 def _encode_rows(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.ndarray:
     n = unary.shape[0]
     return np.concatenate([lock.reshape(n, -1).astype(np.uint8), unary.reshape(n, -1).astype(np.uint8),
@@ -587,11 +611,7 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
     ecode = _codes(binary)
     col = _colours(ucode, ecode)
     perms = np.argsort(col, axis=1, kind="stable")
-    if m > 1:
-        same = (col[:, :, None] == col[:, None, :])
-        bad = np.flatnonzero((same & ~_twins(ucode, ecode)).any(axis=(1, 2)))
-    else:
-        bad = np.zeros(0, dtype=np.int64)
+    bad = _untwinned_ties(ucode, ecode, col, perms) if m > 1 else np.zeros(0, dtype=np.int64)
     idx = np.arange(n)[:, None]
     codes = _encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
                          lock[idx, perms])
