@@ -34,7 +34,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..errors import UserError
-from ..logic import Atom, Literal
+from ..logic import Atom, Literal, is_variable
 from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
 from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
                   Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
@@ -172,6 +172,21 @@ def _covers(rule: Rule, action_vars: Sequence[str], taken: set[str], injective: 
     return Exists(tuple(Typed(w) for w in ws), _conj(parts))
 
 
+def _disjoint(rule: Rule, other: Rule) -> bool:
+    """True when the contexts contradict on the action's own arguments (``(clear ?x)`` against
+    ``(not (clear ?x))``): then ``other`` can never cover where ``rule`` does, and the exclusion
+    conjunct is left out (shorter output, the same semantics)."""
+    ren = dict(zip(other.action.args, rule.action.args))
+    mine = set(rule.context)
+    own = set(rule.action.args)
+    for l in other.context:
+        if all(a in ren or not is_variable(a) for a in l.atom.args):
+            flipped = l.substitute(ren).negate()
+            if flipped in mine and all(a in own or not is_variable(a) for a in flipped.atom.args):
+                return True
+    return False
+
+
 def _effect(changes: Sequence[Literal]) -> Effect:
     lits = tuple(sorted(changes))
     return lits[0] if len(lits) == 1 else AndEffect(lits)
@@ -193,7 +208,8 @@ def rule_to_action(rule: Rule, k: int, others: Sequence[Rule], noise: str = "no-
     if u is not None:
         pre.append(u)
     for other in others:
-        pre.append(Not(_covers(other, action_vars, set(taken), injective)))
+        if not _disjoint(rule, other):
+            pre.append(Not(_covers(other, action_vars, set(taken), injective)))
     if noise == "pessimistic":
         pre.append(Not(Atom(NOISE_PREDICATE)))
     probs = [probability(p) for p in rule.probs]
