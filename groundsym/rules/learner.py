@@ -239,14 +239,16 @@ class ActionLearner:
         same = [i for i in free if not self.table.changed[i]]
         order = list(self.rng.permutation(changed)) + list(self.rng.permutation(same))
         seen: set = set()
+        starts: set = set()          # seeds that lift to the same rule give the same candidate
         for i in order[: self.opts.max_seeds]:
-            f = self._explain(int(i), R)
+            f = self._explain(int(i), R, starts)
             if f is not None and f.rule.context not in seen:
                 seen.add(f.rule.context)
                 yield self.integrate(R, [f])
 
-    def _explain(self, i: int, R: tuple[RuleFit, ...] = ()) -> RuleFit | None:
-        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily against ``R``."""
+    def _explain(self, i: int, R: tuple[RuleFit, ...] = (), starts: set | None = None) -> RuleFit | None:
+        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily against ``R``;
+        None if it starts as a rule in ``starts`` (already tried)."""
         ex = self.table.examples[i]
         if self.opts.injective and len(set(ex.action.args)) != len(ex.action.args):
             return None
@@ -263,6 +265,11 @@ class ActionLearner:
                 sigma, ctx = trial, ctx | set(lits)
             else:
                 return None
+        key = (frozenset(ctx), frozenset(sigma[c] for c in changed_objs))
+        if starts is not None:
+            if key in starts:
+                return None
+            starts.add(key)
         if self.fit(ctx) is None or i not in self.fit(ctx).covered:
             return None
         return self._trim(ctx, i, {sigma[c] for c in changed_objs}, R)

@@ -50,18 +50,30 @@ def fit_outcome_probs(cover: np.ndarray, p_min: float, weights: np.ndarray | Non
 
 
 def _em(C: np.ndarray, w: np.ndarray, p_min: float, iters: int, tol: float) -> tuple[np.ndarray, float]:
-    """EM for the mixture weights of fixed components (the columns of C plus the noise column)."""
-    W = np.concatenate([C.astype(float), np.full((C.shape[0], 1), p_min)], axis=1)
+    """EM for the mixture weights of fixed components (the columns of C plus the noise column).
+    Examples with the same row of C are merged first (their weights add): same optimum, less work."""
+    rows, w = _merge_rows(C, w)
+    W = np.concatenate([rows.astype(float), np.full((rows.shape[0], 1), p_min)], axis=1)
     q = np.full(W.shape[1], 1.0 / W.shape[1])
-    for _ in range(iters):
-        mix = W @ q
-        q_new = q * ((w / mix) @ W)
-        if np.max(np.abs(q_new - q)) < tol:
+    for it in range(iters):
+        q_new = q * ((w / (W @ q)) @ W)
+        if it % 10 == 9 and np.abs(q_new - q).max() < tol:
             q = q_new
             break
         q = q_new
     q = q / q.sum()
     return q[:-1], float(q[-1])
+
+
+def _merge_rows(C: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct rows of a 0/1 matrix and their summed weights."""
+    if C.shape[1] <= 62:
+        keys = C.astype(np.int64) @ (np.int64(1) << np.arange(C.shape[1], dtype=np.int64))
+        uniq, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        rows = C[first]
+    else:
+        rows, inverse = np.unique(C, axis=0, return_inverse=True)
+    return rows, np.bincount(inverse.reshape(-1), weights=w, minlength=len(rows))
 
 
 def _floor_noise(p: np.ndarray, noise: float, floor: float) -> tuple[np.ndarray, float]:
@@ -115,57 +127,71 @@ def lifted_changes(table: ExampleTable, cov: Coverage) -> list[Outcome | None]:
 
 
 def induce_outcomes(table: ExampleTable, cov: Coverage, alpha: float, p_min: float) -> OutcomeFit:
-    """InduceOutcomes (A.7): observed changes as candidates, then greedy ADD/REMOVE with refitting."""
+    """InduceOutcomes (A.7): observed changes as candidates, then greedy ADD/REMOVE with refitting.
+
+    Outcomes are interned as integers during the search (sets of them are hashed many times)."""
     w = table.weights[cov.index]
-    columns: dict[Outcome, np.ndarray] = {}
+    n_changes = table.n_changes[cov.index]
+    pool: list[Outcome] = []
+    ids: dict[Outcome, int] = {}
+    columns: list[np.ndarray] = []
 
-    def column(o: Outcome) -> np.ndarray:
-        if o not in columns:
-            columns[o] = table.outcome_covers(o.changes, cov)
-        return columns[o]
+    def intern(o: Outcome) -> int:
+        if o not in ids:
+            ids[o] = len(pool)
+            pool.append(o)
+            columns.append(table.outcome_covers(o.changes, cov))
+        return ids[o]
 
-    def fit(outs: tuple[Outcome, ...]) -> tuple[float, OutcomeFit]:
-        return _trim_and_fit(outs, column, w, table.n_changes[cov.index], alpha, p_min)
+    fits: dict[tuple[int, ...], tuple[float, tuple[int, ...], OutcomeFit]] = {}
 
-    start = tuple(sorted({o for o in lifted_changes(table, cov) if o is not None}))
-    best, best_fit = fit(start)
+    def fit(outs: tuple[int, ...]) -> tuple[float, tuple[int, ...], OutcomeFit]:
+        if outs not in fits:
+            fits[outs] = _trim_and_fit(outs, pool, columns, w, n_changes, alpha, p_min)
+        return fits[outs]
+
+    start = tuple(sorted({intern(o) for o in lifted_changes(table, cov) if o is not None}))
+    best, best_outs, best_fit = fit(start)
     while True:
-        cands = _neighbours(best_fit.outcomes)
         improved = False
-        for outs in cands:
-            sc, f = fit(outs)
+        for outs in _neighbours(best_outs, pool, columns, intern):
+            sc, kept, f = fit(outs)
             if sc > best + 1e-9:
-                best, best_fit, improved = sc, f, True
+                best, best_outs, best_fit, improved = sc, kept, f, True
         if not improved:
             return best_fit
 
 
-def _neighbours(outs: tuple[Outcome, ...]) -> list[tuple[Outcome, ...]]:
-    """REMOVE one outcome; ADD (replace two compatible outcomes by their union)."""
+def _neighbours(outs: tuple[int, ...], pool: list[Outcome], columns: list[np.ndarray], intern
+                ) -> list[tuple[int, ...]]:
+    """REMOVE one outcome; ADD (replace two compatible outcomes by their union), where the union
+    explains some example (a union that explains nothing is trimmed at once: REMOVE covers it)."""
     cands = [outs[:i] + outs[i + 1:] for i in range(len(outs))]
     for n, (i, j) in enumerate(combinations(range(len(outs)), 2)):
         if n >= MAX_ADD_PAIRS:
             break
-        a, b = outs[i], outs[j]
+        a, b = pool[outs[i]], pool[outs[j]]
         if _contradict(a, b):
             continue
-        union = Outcome(a.changes + b.changes)
+        u = intern(Outcome(a.changes + b.changes))
         rest = tuple(o for k, o in enumerate(outs) if k not in (i, j))
-        if union not in rest:
-            cands.append(tuple(sorted(rest + (union,))))
+        if u not in rest and columns[u].any():
+            cands.append(tuple(sorted(rest + (u,))))
     return cands
 
 
 def _contradict(a: Outcome, b: Outcome) -> bool:
-    return any(l.negate() in set(b.changes) for l in a.changes)
+    neg = {l.negate() for l in b.changes}
+    return any(l in neg for l in a.changes)
 
 
-def _trim_and_fit(outs: tuple[Outcome, ...], column, w: np.ndarray, n_changes: np.ndarray,
-                  alpha: float, p_min: float) -> tuple[float, OutcomeFit]:
+def _trim_and_fit(outs: tuple[int, ...], pool: list[Outcome], columns: list[np.ndarray], w: np.ndarray,
+                  n_changes: np.ndarray, alpha: float, p_min: float
+                  ) -> tuple[float, tuple[int, ...], OutcomeFit]:
     """Fit probabilities, drop outcomes that cover nothing or get (almost) no mass, refit; score."""
-    outs = tuple(o for o in outs if column(o).any())
+    outs = tuple(o for o in outs if columns[o].any())
     while True:
-        C = np.stack([column(o) for o in outs], axis=1) if outs else np.zeros((len(w), 0), dtype=bool)
+        C = np.stack([columns[o] for o in outs], axis=1) if outs else np.zeros((len(w), 0), dtype=bool)
         p, noise = fit_outcome_probs(C, p_min, w)
         keep = p > PROB_EPS
         if keep.all():
@@ -175,5 +201,5 @@ def _trim_and_fit(outs: tuple[Outcome, ...], column, w: np.ndarray, n_changes: n
     unexplained = ~C.any(axis=1) if outs else np.ones(len(w), dtype=bool)
     wn = w[unexplained].sum()
     noise_changes = float(w[unexplained] @ n_changes[unexplained] / wn) if wn > 0 else 0.0
-    f = OutcomeFit(outs, tuple(float(x) for x in p), float(noise), noise_changes, ll)
-    return ll - alpha * f.n_literals, f
+    f = OutcomeFit(tuple(pool[o] for o in outs), tuple(float(x) for x in p), float(noise), noise_changes, ll)
+    return ll - alpha * f.n_literals, outs, f
