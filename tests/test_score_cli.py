@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from examples.rule_recovery import KNOWN, simulate
+from examples.rule_recovery import KNOWN, REFERENCE, simulate
 from groundsym.cli import main
 from groundsym.logic import Atom
 from groundsym.modeldir import learn_symbolic_model, load_model
 from groundsym.rules.io import read_rules
-from groundsym.symbolic_traces import write_symbolic_traces
+from groundsym.symbolic_traces import read_symbolic_traces, write_symbolic_traces
 
 
 @pytest.fixture(scope="module")
@@ -90,3 +90,33 @@ def test_bad_input_gives_one_line_and_status_2(learned, tmp_path, capsys, case):
     want = {"no-model": "nothing: no such", "bad-rules": "rules.json: rules[0].outcomes: probabilities",
             "bad-data": "t.json: primitives: missing"}[case]
     assert want in err
+
+
+def test_a_ppddl_domain_is_scored_with_its_true_dynamics(tmp_path, capsys):
+    """The reference blocks world is in the rule subset, so its PPDDL semantics (the simulator's)
+    and its NID rules (domain_to_rules) are two independent ways to the same likelihood."""
+    from groundsym.ppddl.convert import domain_to_rules
+    from groundsym.ppddl.parser import load
+    from groundsym.rules.evaluate import score_ruleset
+
+    domain_file = REFERENCE / "blocksworld" / "domain.ppddl"
+    problem_file = REFERENCE / "blocksworld" / "p01.ppddl"
+    data = tmp_path / "bw.json"
+    assert main(["simulate", "--domain", str(domain_file), "--problem", str(problem_file), "--traces", "6",
+                 "--length", "15", "--inapplicable", "0.25", "--seed", "4", "-o", str(data)]) == 0
+    capsys.readouterr()
+    assert main(["score", str(domain_file), str(data), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    ds = read_symbolic_traces(data)
+    want = score_ruleset(domain_to_rules(load(domain_file)[0]), ds)
+    assert doc["transitions"] == ds.n_transitions == want.transitions
+    assert doc["impossible"] == 0
+    assert doc["mean_log_likelihood"] == pytest.approx(want.mean_log_likelihood, abs=1e-9)
+    assert sum(r["covers"] for r in doc["rules"]) + doc["default_covered"] == doc["transitions"]
+    # a transition the domain cannot produce is counted and priced with p_min
+    tr = ds.traces[0]
+    tr.states[1] = tr.states[0] | {Atom("on", tr.objects[:2])}
+    write_symbolic_traces(tmp_path / "odd.json", ds)
+    assert main(["score", str(domain_file), str(tmp_path / "odd.json"), "--json"]) == 0
+    odd = json.loads(capsys.readouterr().out)
+    assert odd["impossible"] >= 1 and math.isfinite(odd["mean_log_likelihood"])
