@@ -346,10 +346,18 @@ class PradaCore:
             value = value + self.discounts[t + 1] * self.reward(B)
         return value
 
-    def best(self, seqs: np.ndarray, values: np.ndarray) -> int:
-        """Row of the chosen sequence: the best one, or the best of the best first action (top10)."""
+    def best(self, seqs: np.ndarray, values: np.ndarray, rng: np.random.Generator | None = None) -> int:
+        """Row of the chosen sequence: the best one, or the best of the best first action (top10).
+
+        Sequences the model cannot tell apart (interchangeable objects give equal values up to
+        rounding) are chosen among at random: taking the first would always favour the same object
+        through floating-point order, and a robot would retry a cube that physically cannot be
+        grasped for the rest of the episode.
+        """
         if self.choice == "max":
-            return int(np.argmax(values))
+            top = float(values.max())
+            tied = np.flatnonzero(values >= top - 1e-9 * max(1.0, abs(top)))
+            return int(tied[0] if rng is None or len(tied) == 1 else rng.choice(tied))
         firsts = np.unique(seqs[:, 0])
         best_row, best_mean = 0, -np.inf
         for a in firsts:
@@ -375,7 +383,7 @@ class PradaCore:
     def plan(self, b0: np.ndarray, rng: np.random.Generator, shorten: bool) -> Plan:
         seqs, values = self.sample(b0, rng)
         noop = float(self.evaluate(b0, np.full((1, self.horizon), -1))[0])
-        row = self.best(seqs, values)
+        row = self.best(seqs, values, rng)
         seq, value = seqs[row], float(values[row])
         if shorten:
             seq, value = self.shorten(b0, seq, value)
