@@ -43,7 +43,7 @@ def bw_model(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def tower_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p01.ppddl", 2)
+    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p02.ppddl", 2)
 
 
 def _numbered(rules):
