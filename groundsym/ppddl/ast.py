@@ -376,7 +376,7 @@ def layout(x: object, indent: int = 0) -> str:
     return "\n".join(lines)
 
 
-for _cls in (Not, And, Or, Imply, Forall, Exists, AndEffect, Probabilistic, When, ForallEffect, RewardEffect,
-             Action):
+# every node prints itself through the one walker (assigned here, after the walker is defined)
+for _cls in (Not, And, Or, Imply, Forall, Exists, AndEffect, Probabilistic, When, ForallEffect, RewardEffect):
     _cls.__str__ = lambda self: layout(to_sexp(self))  # type: ignore[method-assign]
 Action.__str__ = lambda self: layout(_domain_sexp(Domain("_", actions=(self,)))[-1])  # type: ignore[method-assign]
