@@ -97,7 +97,8 @@ class PPDDLSource:
         try:
             return sorted(canonical_context(r) for r in domain_to_rules(self.domain).rules)
         except UserError:
-            return sorted((a.name, (" ".join(layout(to_sexp(a.precondition)).split()),)) for a in self.domain.actions)
+            return sorted((f"({a.name})", (" ".join(layout(to_sexp(a.precondition)).split()),))
+                      for a in self.domain.actions)
 
 
 def sources() -> dict:
@@ -169,15 +170,21 @@ def recover(source, n_train: int, seed: int, n_test: int = 2000, options: LearnO
 
 
 def side_by_side(true_ctx: list, learned_ctx: list) -> list[str]:
-    rows = ["| true operator | context | learned rule context |", "|---|---|---|"]
+    """Markdown rows: each true operator's context beside the learned rule with the same context,
+    then the learned rules nothing matched (grouped by action name)."""
+    rows = ["| action | true operator | learned rule |", "|---|---|---|"]
     learned = list(learned_ctx)
     for act, ctx in true_ctx:
         match = (act, ctx) in learned
         if match:
             learned.remove((act, ctx))
-        rows.append(f"| {act} | {' '.join(ctx)} | {' '.join(ctx) if match else '(none)'} |")
-    rows += [f"| {act} | (none) | {' '.join(ctx)} |" for act, ctx in learned]
+        rows.append(f"| {_name(act)} | {' '.join(ctx)} | {' '.join(ctx) if match else '-'} |")
+    rows += [f"| {_name(act)} | - | {' '.join(ctx)} |" for act, ctx in learned]
     return rows
+
+
+def _name(act: str) -> str:
+    return act.strip("()").split()[0]
 
 
 def main() -> None:
@@ -213,19 +220,30 @@ def main() -> None:
 
 
 def _plot(results: list[dict], path: Path) -> None:
+    """Every run's gap (dots) and the median per size (line), on a symmetric log scale."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(5, 3.2))
-    for name in sorted({r["domain"] for r in results}):
+    fig, ax = plt.subplots(figsize=(5.5, 3.4))
+    names = sorted({r["domain"] for r in results})
+    for k, name in enumerate(names):
         rs = [r for r in results if r["domain"] == name]
         sizes = sorted({r["train"] for r in rs})
-        gaps = [[r["gap"] for r in rs if r["train"] == n] for n in sizes]
-        ax.errorbar(sizes, [np.mean(g) for g in gaps], yerr=[np.std(g) for g in gaps], marker="o", label=name)
+        shift = 1 + 0.04 * (k - (len(names) - 1) / 2)
+        for n in sizes:
+            g = [r["gap"] for r in rs if r["train"] == n]
+            ax.scatter([n * shift] * len(g), g, s=10, alpha=0.5, color=f"C{k}")
+        med = [float(np.median([r["gap"] for r in rs if r["train"] == n])) for n in sizes]
+        ax.plot([n * shift for n in sizes], med, marker="o", color=f"C{k}", label=f"{name} (median)")
     ax.axhline(0.1, color="grey", ls="--", lw=1, label="target 0.1 nats")
     ax.set_xscale("log")
-    ax.set_xlabel("training transitions")
-    ax.set_ylabel("held-out gap to truth (nats/transition)")
-    ax.legend(fontsize=8)
+    ax.set_yscale("symlog", linthresh=1e-3)
+    ax.set_ylim(top=2 * max(r["gap"] for r in results))
+    sizes = sorted({r["train"] for r in results})
+    ax.set_xticks(sizes, [str(n) for n in sizes])
+    ax.minorticks_off()
+    ax.set_xlabel("training transitions (25 % inapplicable actions)")
+    ax.set_ylabel("held-out gap to the true domain\n(nats per transition)")
+    ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
