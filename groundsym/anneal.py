@@ -47,7 +47,8 @@ class AnnealConfig:
     p_reseed: float = 0.1
     p_swap: float = 0.1
     step: float = 0.3            # perturbation: centre moves ~ step x width, log-widths ~ step
-    width_range: tuple[float, float] = (0.05, 2.0)  # initial widths, x the data's spread
+    width_range: tuple[float, float] = (0.05, 2.0)  # shape of new widths, x the data's spread
+    share_range: tuple[float, float] = (0.005, 0.3)  # a new symbol holds for this share of the data
     chunk: int = 500             # evaluations per restart between checkpoints
 
     def __post_init__(self) -> None:
@@ -63,6 +64,7 @@ class AnnealConfig:
     def to_doc(self) -> dict[str, Any]:
         d = asdict(self)
         d["width_range"] = list(self.width_range)
+        d["share_range"] = list(self.share_range)
         return d
 
 
@@ -79,17 +81,39 @@ def _slots(cfg: AnnealConfig) -> list[tuple[int, str]]:
     return [(1, _slot_name(1, k)) for k in range(cfg.n_unary)] + [(2, _slot_name(2, k)) for k in range(cfg.n_binary)]
 
 
+_POINTS: dict[int, tuple[LossData, np.ndarray, np.ndarray]] = {}
+
+
+def _points(data: LossData) -> tuple[np.ndarray, np.ndarray]:
+    """All object feature vectors and all distinct-pair feature vectors of the data (memoised)."""
+    hit = _POINTS.get(id(data))
+    if hit is None or hit[0] is not data:
+        m = data.features.shape[1]
+        unary = data.features.reshape(-1, data.features.shape[-1])
+        pairs = data.pairs[:, ~np.eye(m, dtype=bool)].reshape(-1, data.pairs.shape[-1])
+        _POINTS.clear()
+        hit = _POINTS[id(data)] = (data, unary, pairs)
+    return hit[1], hit[2]
+
+
 def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
-    """A centre drawn from the data (an object or an ordered pair of distinct objects), random widths."""
-    s = int(rng.integers(data.features.shape[0]))
-    m = data.features.shape[1]
-    if arity == 1:
-        centre, scale = data.features[s, int(rng.integers(m))], data.unary_scale
-    else:
-        i, j = rng.choice(m, 2, replace=False) if m > 1 else (0, 0)
-        centre, scale = data.pairs[s, int(i), int(j)], data.pair_scale
+    """A centre drawn from the data (an object or an ordered pair of distinct objects) and random
+    widths, scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform).
+
+    Without the scaling most proposals are never or almost always true (random widths over several
+    dimensions rarely fit the data), and a search wastes its re-seeds on them.
+    """
+    unary, pairs = _points(data)
+    pts = unary if arity == 1 else pairs
+    centre = pts[int(rng.integers(len(pts)))]
+    scale = data.unary_scale if arity == 1 else data.pair_scale
     lo, hi = np.log(cfg.width_range)
     widths = scale * np.exp(rng.uniform(lo, hi, len(scale)))
+    share = float(np.exp(rng.uniform(np.log(cfg.share_range[0]), np.log(cfg.share_range[1]))))
+    dist = np.sqrt((((pts - centre) / widths) ** 2).sum(-1))
+    radius = float(np.quantile(dist, share))
+    if radius > 0:
+        widths = widths * radius / np.sqrt(np.log(2.0)) * 1.0001
     return Symbol(name, arity, np.array(centre, dtype=float), widths)
 
 

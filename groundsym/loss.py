@@ -38,7 +38,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import UserError
-from .relational import INF, Encoded, canonical_forms, exact_state_distance, twin_groups
+from .relational import INF, Encoded, canonical_forms, exact_state_distance, root_bounds, twin_groups
 from .symbols import Symbol, binary_truth, dataset_arrays, unary_truth
 from .traces import Dataset
 
@@ -248,9 +248,15 @@ class Loss:
         for c in range(len(reps)):
             if c == k or reps[c].label != q.label or lock_sig[c] != lock_sig[k]:
                 bound[c] = INF
-        best, hits = INF, []
-        for c in np.argsort(bound, kind="stable"):
-            if bound[c] == INF or bound[c] > best:
+        # stage 1: candidates in order of the profile bound, each with its root bounds, which give
+        # an upper bound on the nearest distance; stage 2: exact searches where the root bound allows
+        order = [int(c) for c in np.argsort(bound, kind="stable") if bound[c] < INF]
+        lb, ub = root_bounds(q, [reps[c] for c in order])
+        best = float(ub.min()) if len(ub) else INF
+        keep = [(max(lb[i], bound[c]), c) for i, c in enumerate(order) if max(lb[i], bound[c]) <= best]
+        hits = []
+        for low, c in sorted(keep):
+            if low > best:
                 break
             d, perm = self._class_distance(rep_keys[k], rep_keys[c], q, reps[c], best + 0.5)
             if perm is None or d > best:  # (a cached exact distance may exceed the threshold)
@@ -309,9 +315,11 @@ class Loss:
                 pats, inv, cnt = np.unique(flat[group], axis=0, return_inverse=True, return_counts=True)
                 ham = (pats[:, None, :] != pats[None, :, :]).sum(-1)
                 lp = ham * log_eps + (n_lit - ham) * log_ok
-                w = np.exp(lp - lp.max(1, keepdims=True))
-                tot = (w * cnt[None]).sum(1) - w[np.arange(len(pats)), np.arange(len(pats))]
-                ll[group] = (lp.max(1) + np.log(tot) - math.log(len(group) - 1))[inv.ravel()]
+                weight = cnt[None, :] - np.eye(len(pats))        # the other members with each pattern
+                lp = np.where(weight > 0, lp, -np.inf)
+                top = lp.max(1, keepdims=True)
+                tot = (weight * np.exp(lp - top)).sum(1)
+                ll[group] = (top[:, 0] + np.log(tot) - math.log(len(group) - 1))[inv.ravel()]
                 continue
             i = group[0]
             best, hits = nb.hits[k]
