@@ -168,7 +168,7 @@ def run_episode(env: Any, planner: Any, steps: int, seed: int, name: str = "",
     start_reward = env.start_reward()
     record: list[Step] = []
     for t in range(steps):
-        if env.done():
+        if env.done() or not obs.actions:     # goal reached, or a dead end: nothing can be run
             break
         decision: Decision = planner.choose(obs)
         nxt, reward = env.step(decision.action, t + 1, steps - t - 1)

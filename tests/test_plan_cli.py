@@ -80,3 +80,23 @@ def test_the_whole_loop_in_the_tower_sim_with_a_learned_model(tmp_path, capsys):
         for s in ep["steps"]:
             assert s["state"] is not None and all(a.split()[0].strip("(") in preds for a in s["state"])
     assert "expected value" in capsys.readouterr().out
+
+
+def test_an_episode_ends_at_a_dead_end():
+    """IPPC-2006 tireworld: a flat tire where no spare lies leaves nothing to run; the episode stops."""
+    from groundsym.episode import ppddl_model, ppddl_world, run_episode
+    from groundsym.planner import make_planner
+    from groundsym.ppddl.parser import load
+
+    tw = ROOT / "tests" / "data" / "ippc" / "ippc2006" / "tireworld"
+    domain, problem = load(tw / "domain.pddl", tw / "p01.pddl")
+    env, task = ppddl_world(domain, problem)
+    model = ppddl_model(domain, problem, task)
+    ended_early = 0
+    for seed in range(8):
+        ep = run_episode(env, make_planner("random", model, {}, seed), 40, seed)
+        final = frozenset(env.state)
+        stuck = not [a for a in task.primitive_actions() if task.is_applicable(final, a)]
+        assert ep.success or stuck or len(ep.steps) == 40
+        ended_early += (not ep.success) and stuck and len(ep.steps) < 40
+    assert ended_early >= 1
