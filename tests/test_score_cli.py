@@ -120,3 +120,21 @@ def test_a_ppddl_domain_is_scored_with_its_true_dynamics(tmp_path, capsys):
     assert main(["score", str(domain_file), str(tmp_path / "odd.json"), "--json"]) == 0
     odd = json.loads(capsys.readouterr().out)
     assert odd["impossible"] >= 1 and math.isfinite(odd["mean_log_likelihood"])
+
+
+def test_model_directory_loads_symbols_and_continuous_traces_when_present(learned, tmp_path):
+    import shutil
+
+    from conftest import DATA
+    from groundsym.symbols import Symbol, SymbolSet, save_symbols
+
+    d, _ = learned
+    model = tmp_path / "model"
+    shutil.copytree(d / "model", model)
+    names = ("x", "y", "z", "size")
+    save_symbols(model / "symbols.json", SymbolSet((Symbol("u1", 1, np.zeros(4), np.ones(4)),), names))
+    shutil.copy(DATA / "tower_small.json", model / "traces.json")
+    m = load_model(model)
+    assert "symbols" not in m.__dict__                     # lazy: nothing read yet
+    assert m.symbols.predicates == {"u1": 1}
+    assert len(m.traces.traces) == 4 and m.rules.rules == load_model(d / "model").rules.rules
