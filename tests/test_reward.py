@@ -10,7 +10,7 @@ import pytest
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom, parse_atom
-from groundsym.reward import Feature, candidate_features, doc_to_reward, fit_reward, read_reward, write_reward
+from groundsym.reward import RewardModel, candidate_features, doc_to_reward, fit_reward, read_reward, write_reward
 from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace
 
 PREDS = {"u1": 1, "b1": 2, "z": 0}
@@ -22,7 +22,6 @@ def st(*atoms):
 
 def model_with(weights: dict[str, float], intercept=0.0):
     feats = {str(f): f for f in candidate_features(PREDS)}
-    from groundsym.reward import RewardModel
     return RewardModel(tuple(feats[k] for k in weights), tuple(weights.values()), intercept, tuple(sorted(PREDS.items())))
 
 
@@ -45,7 +44,6 @@ def test_expected_reward_is_exact_under_independent_marginals():
     objs = ("a", "b", "c")
     atoms = [Atom(p, args) for p, k in sorted(PREDS.items()) for args in permutations(objs, k)]
     feats = candidate_features(PREDS)
-    from groundsym.reward import RewardModel
     m = RewardModel(tuple(feats), tuple(rng.normal(size=len(feats))), 0.3, tuple(sorted(PREDS.items())))
     marg = {a: float(rng.random()) for a in atoms}
     brute = 0.0

@@ -11,7 +11,7 @@ import pytest
 from groundsym.errors import UserError
 from groundsym.logic import Atom, Literal, parse_atom, parse_literal
 from groundsym.rules.coverage import Example, ExampleTable
-from groundsym.rules.io import doc_to_rules, read_rules, rules_to_doc, rules_to_text, write_rules
+from groundsym.rules.io import doc_to_rules, read_rules, rules_to_text, write_rules
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet
 
 from conftest import DATA
