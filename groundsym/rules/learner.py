@@ -101,7 +101,8 @@ def learn_rules(examples: Sequence[Example], predicates: dict[str, int], options
     for k, (name, arity) in enumerate(sorted(by_action)):
         learner = ActionLearner(ExampleTable(by_action[(name, arity)], predicates), name, arity, options,
                                 np.random.default_rng(rng.integers(2**63)))
-        fits, default, stats = learner.learn()
+        fits, default, stats = learner.learn(
+            lambda r, n, sc, name=name, k=k: bar.update(k, f"{name}: round {r}, {n} rules, score {sc:.2f}"))
         rules.extend(_canonical(f.rule) for f in fits)
         defaults.append((name, default))
         report.per_action[name] = stats
@@ -199,7 +200,9 @@ class ActionLearner:
         return tuple(out)
 
     # --- the search ----------------------------------------------------------------------------
-    def learn(self) -> tuple[list[RuleFit], DefaultRule, dict]:
+    def learn(self, report: Callable[[int, int, float], None] | None = None
+              ) -> tuple[list[RuleFit], DefaultRule, dict]:
+        """The search; ``report(round, rules, score)`` is called after every round (progress)."""
         ops: list[tuple[str, Callable[[tuple[RuleFit, ...]], Iterable[tuple[RuleFit, ...]]]]] = [
             ("ExplainExamples", self.explain_examples), ("DropRules", self.drop_rules),
             ("DropLits", self.drop_lits), ("DropRefs", self.drop_refs), ("AddLits", self.add_lits),
@@ -208,13 +211,15 @@ class ActionLearner:
         R: tuple[RuleFit, ...] = ()
         best = self.score(R)
         successes = {name: 0 for name, _ in ops}
-        for _ in range(self.opts.max_rounds):
+        for rnd in range(self.opts.max_rounds):
             improved = False
             for name, op in ops:
                 cand, sc = self._best_of(op(R))
                 if cand is not None and sc > best + 1e-9:
                     R, best, improved = cand, sc, True
                     successes[name] += 1
+            if report is not None:
+                report(rnd + 1, len(R), best)
             if not improved:
                 break
         d, _ = self.default(R)
