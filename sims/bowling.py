@@ -87,7 +87,6 @@ class BowlingSim:
         self.rng = np.random.default_rng(0)
         self.spots: tuple[int, ...] = ()
         self.objects: tuple[str, ...] = ()
-        self.throws = 0
 
     # -- episode --------------------------------------------------------------------------------
     def reset(self, seed: int) -> Scene:
@@ -105,7 +104,6 @@ class BowlingSim:
         self.objects = tuple(f"p{i + 1}" for i in range(len(spots)))
         self.alley.build(rack_positions()[np.array(spots) - 1])
         self.alley.run(1.0)
-        self.throws = 0
         return self.scene()
 
     def actions(self) -> list[Atom]:
@@ -123,7 +121,6 @@ class BowlingSim:
         speed = self.options["speed"] * max(0.5, 1.0 + self.options["speed_noise"] * dv)
         self.alley.launch(aim + self.options["noise"] * dx, speed)
         self.alley.run(self.options["max_time"])
-        self.throws += 1
         return self.scene()
 
     def _target(self, action: Atom) -> int:
