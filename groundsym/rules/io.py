@@ -182,6 +182,9 @@ def rules_to_text(rs: RuleSet, covers: Mapping[int, int] | None = None, title: s
     for i, r in enumerate(rs.rules):
         cov = f"    ({covers.get(i, 0)} training transitions)" if covers is not None else ""
         lines.append(f"rule {i + 1}: {r.action}{cov}")
+        if covers is not None and not covers.get(i, 0):
+            lines.append("  exception: in the training data it covers only where another rule of this action "
+                         "covers too;\n  there neither applies and the default rule does")
         lines.append(f"  context:  {' '.join(str(l) for l in r.context) if r.context else '(always)'}")
         if r.deictic:
             lines.append(f"  references: {', '.join(r.deictic)} (each must match exactly one object)")
