@@ -261,6 +261,25 @@ def array_reward(model: Any, g: Grounding) -> ArrayReward:
     return ArrayReward(model, columns, m)
 
 
+@dataclass(frozen=True, eq=False)
+class SampledReward(RewardFn):
+    """A model that only scores states (``predict(state, objects)``): Monte Carlo over states drawn
+    from the factored belief, with one fixed set of uniforms for every row and step (common random
+    numbers, so sequences are compared on the same draws) (ALGORITHMS.md B.7, case 3)."""
+
+    model: Any
+    g: Grounding
+    uniforms: np.ndarray   # (M, V)
+
+    def __call__(self, B: np.ndarray) -> np.ndarray:
+        out = np.empty(B.shape[0])
+        for n, row in enumerate(B):
+            draws = self.uniforms < row[None, :self.g.n_vars]
+            out[n] = np.mean([self.model.predict(frozenset(a for a, on in zip(self.g.atoms, d) if on),
+                                                 self.g.objects) for d in draws])
+        return out
+
+
 def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
     idx, pos = [], []
     for lit in goal.literals:
@@ -275,7 +294,8 @@ def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
 
 
 def model_reward(model: Any, g: Grounding, rng: np.random.Generator) -> RewardFn:
-    """Batched arrays for a groundsym RewardModel; for any other model with ``expected``: linear weights when the model's expectation is linear in the marginals, else row by row.
+    """Batched arrays for a groundsym RewardModel; Monte Carlo for a model with only ``predict``;
+    for any other model with ``expected``: linear weights when the model's expectation is linear in the marginals, else row by row.
 
     Probing ``expected`` at the empty belief and at each unit vector gives the weights a linear
     model must have; three random beliefs then confirm linearity (a tree or product model fails
@@ -283,6 +303,8 @@ def model_reward(model: Any, g: Grounding, rng: np.random.Generator) -> RewardFn
     """
     if hasattr(model, "expected_arrays") and hasattr(model, "predicates"):
         return array_reward(model, g)
+    if not hasattr(model, "expected"):
+        return SampledReward(model, g, np.random.default_rng(0).random((32, g.n_vars)))
     full = ModelReward(model, g)
     V = g.n_vars
     probes = np.zeros((V + 1, V + 1))

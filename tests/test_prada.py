@@ -122,7 +122,7 @@ def test_rule_probabilities_are_a_distribution_per_action():
 def goal_env(objects, goal, p=0.9):
     rules = blocks_world(p)
     return rules, SymbolicEnv(objects, on_table(objects), lambda s: ground_actions(PRIMS, objects),
-                              lambda s, a, rng: sample_successor(rules, s, a, rng, objects), goal, gamma=1.0)
+                              lambda s, a, rng: (sample_successor(rules, s, a, rng, objects), 0.0), goal, gamma=1.0)
 
 
 TOWER3 = Goal((L("(on a b)"), L("(on b c)")), 1.0)
@@ -216,3 +216,21 @@ def test_batched_reward_model_matches_its_own_expectation():
     B = np.hstack([rng.random((4, g.n_vars)), np.ones((4, 1))])
     want = [model.expected(g.marginals(row), objects) for row in B]
     np.testing.assert_allclose(fn(B), want, rtol=1e-10)
+
+
+class OnlyPredict:
+    """A nonlinear reward that can only score whole states: 1 if a is on b and b on c."""
+
+    def predict(self, state, objects):
+        return float(A("(on a b)") in state and A("(on b c)") in state)
+
+
+def test_a_state_only_reward_is_estimated_by_sampling_the_belief():
+    g = ground_rules(blocks_world(), ("a", "b", "c"), PREDS)
+    fn = model_reward(OnlyPredict(), g, np.random.default_rng(0))
+    b = g.belief(frozenset())
+    b[g.index[A("(on a b)")]], b[g.index[A("(on b c)")]] = 0.5, 0.5
+    point = g.belief(frozenset({A("(on a b)"), A("(on b c)")}))
+    est = fn(np.vstack([b, point, g.belief(frozenset())]))
+    assert est[1] == 1.0 and est[2] == 0.0
+    assert abs(est[0] - 0.25) < 3 * np.sqrt(0.25 * 0.75 / 32)      # 32 draws, within 3 sigma
