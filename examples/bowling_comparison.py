@@ -85,12 +85,14 @@ def play_run(args: argparse.Namespace, run: int, traces: list[int], sim: Bowling
     symbols, report = learn_symbols(args, seeds)
     starts = [int(x) for x in np.random.SeedSequence(seeds["games"]).generate_state(args.games)]
     scores: dict[str, dict[str, list[float]]] = {}
+    report["rules"] = {}
     for n in traces:
         mdata = collect_traces(sim, n, 2, seeds["model_data"][n], progress=False)
         sds = symbols.to_symbolic_dataset(mdata)
         with tempfile.TemporaryDirectory() as tmp:
             learn_symbolic_model(sds, Path(tmp), seed=seeds["planners"][n], argv=[], progress=False)
             m = load_model(tmp)
+        report["rules"][str(n)] = len(m.rules.rules)      # NID rules PRADA plans with (besides defaults)
         pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,
                            rules=m.rules, reward=m.reward, traces=mdata, symbolic_traces=sds, gamma=float(sim.gamma))
         pseeds = np.random.SeedSequence(seeds["planners"][n]).generate_state(len(args.methods) * len(starts))
