@@ -49,7 +49,8 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     covers = score_ruleset(rs, sds).covers
     reward = fit_reward(sds, seed=seed)
     options = {"alpha": opts.alpha, "p_min": opts.p_min, "p_min_default": opts.p_min_default,
-               "default_clip": list(opts.default_clip), "score": report.score,
+               "default_clip": list(opts.default_clip), "nochange_prior": opts.nochange_prior,
+               "score": report.score,
                "transitions": sds.n_transitions}
     data_doc["meta"] = {**data_doc.get("meta", {}), "provenance": prov}
     atomic_write_json(out_dir / SYMBOLIC, data_doc, indent=None)

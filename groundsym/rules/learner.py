@@ -27,7 +27,7 @@ import numpy as np
 from ..logic import Atom, Literal, is_variable
 from ..progress import Progress
 from .coverage import Coverage, Example, ExampleTable
-from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Outcome, Rule, RuleSet
 from .outcomes import OutcomeFit, induce_outcomes
 
 ALPHA = 0.5
@@ -46,6 +46,7 @@ class LearnOptions:
     max_seeds: int = 25          # ExplainExamples seed examples per call (GLIB uses 25)
     max_rounds: int = 100        # operator rounds per action
     max_deictic: int = 2         # deictic references per rule
+    nochange_prior: float = 0.5  # pseudo-count of "no change" in the final outcome probabilities
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,7 @@ class RuleFit:
     rule: Rule
     covered: frozenset[int]
     loglik: float
+    fitted_on: float = 0.0      # weight of the examples its outcome probabilities were fitted on
 
     @property
     def pen(self) -> int:
@@ -78,7 +80,9 @@ def examples_from_dataset(ds) -> list[Example]:
 
 @dataclass
 class LearnReport:
-    """What the search did, per action: score, rules, operator successes, examples."""
+    """What the search did, per action: score, rules, operator successes, examples. ``score`` is
+    the search's ``S(R)`` with maximum-likelihood outcome probabilities (before the final
+    "no change" pseudo-count, ``LearnOptions.nochange_prior``)."""
 
     per_action: dict[str, dict] = field(default_factory=dict)
 
@@ -138,7 +142,8 @@ class ActionLearner:
             if len(cov):
                 self._covs[ctx] = cov
                 of = induce_outcomes(self.table, cov, self.opts.alpha, self.opts.p_min)
-                result = RuleFit(_make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik)
+                result = RuleFit(_make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik,
+                                 float(self.table.weights[cov.index].sum()))
         self._fits[ctx] = result
         return result
 
@@ -155,9 +160,10 @@ class ActionLearner:
             if len(sub):
                 of = induce_outcomes(self.table, sub, self.opts.alpha, self.opts.p_min)
                 rule, ll = _make_rule(self.action, f.rule.context, of), of.loglik
+                n = float(self.table.weights[sub.index].sum())
             else:                     # covers nothing alone: keeps its own fit, explains nothing here
-                rule, ll = f.rule, 0.0
-            self._refits[key] = RuleFit(rule, f.covered, ll)
+                rule, ll, n = f.rule, 0.0, f.fitted_on
+            self._refits[key] = RuleFit(rule, f.covered, ll, n)
         return self._refits[key]
 
     def resolve(self, fits: Sequence[RuleFit]) -> tuple[tuple[RuleFit, ...], np.ndarray]:
@@ -223,7 +229,8 @@ class ActionLearner:
             if not improved:
                 break
         d, _ = self.default(R)
-        fits = sorted(self.resolve(R)[0], key=lambda f: str(f.rule.context))
+        fits = sorted((_smooth(f, self.opts.nochange_prior) for f in self.resolve(R)[0]),
+                      key=lambda f: str(f.rule.context))
         stats = {"score": best, "rules": len(fits), "examples": int(len(self.table)),
                  "transitions": self.total_w, "successes": successes}
         return fits, d, stats
@@ -381,6 +388,28 @@ class ActionLearner:
 
 
 # --- helpers -------------------------------------------------------------------------------------
+def _smooth(f: RuleFit, a: float) -> RuleFit:
+    """The final outcome probabilities: "no change" gets ``a`` pseudo-counts on top of the ``n``
+    examples the rule was fitted on, ``p_nochange = (n p + a) / (n + a)``, the rest shrinks by
+    ``n / (n + a)``. The search scores maximum-likelihood fits (A.5); this estimate is for
+    prediction. With little data a rule's context is often broader than the truth, or its failure
+    was never seen; then "nothing happens" would cost ``log(noise * p_min)`` (about -20 nats) per
+    held-out transition, and that is what loses the most likelihood (docs/rules.md)."""
+    r, n = f.rule, f.fitted_on
+    if a <= 0:
+        return f
+    outs, probs = list(r.outcomes), [p * n / (n + a) for p in r.probs]
+    if Outcome() in outs:
+        probs[outs.index(Outcome())] += a / (n + a)
+    else:
+        outs.append(Outcome())
+        probs.append(a / (n + a))
+    keep = [k for k, p in enumerate(probs) if p > 0]
+    rule = Rule(r.action, r.context, tuple(outs[k] for k in keep), tuple(probs[k] for k in keep),
+                r.noise * n / (n + a), r.noise_changes)
+    return RuleFit(rule, f.covered, f.loglik, n)
+
+
 def _make_rule(action: Atom, ctx: tuple[Literal, ...], of: OutcomeFit) -> Rule:
     return Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
 
