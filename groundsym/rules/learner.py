@@ -297,21 +297,19 @@ class ActionLearner:
         cur = self.fit(ctx)
         cur_sc = self.score(self.integrate(R, [cur]))
         for drop_vars in (False, True):
-            while True:
-                if drop_vars:
-                    cands = [{l for l in ctx if v not in l.atom.args} for v in _deictic(ctx, self.action)]
-                else:
-                    cands = [ctx - {l} for l in sorted(ctx)]
-                best, best_sc, best_ctx = None, cur_sc, None
-                for c in cands:
+            changed = True
+            while changed:                    # first-improvement sweeps: O(literals) fits per sweep
+                changed = False
+                units = _deictic(ctx, self.action) if drop_vars else sorted(ctx)
+                for u in units:
+                    c = {l for l in ctx if u not in l.atom.args} if drop_vars else ctx - {u}
+                    if c == ctx or (drop_vars and u not in {a for l in ctx for a in l.atom.args}):
+                        continue
                     f = self.fit(c)
                     if ok(f):
                         sc = self.score(self.integrate(R, [f]))
-                        if sc > best_sc + 1e-9:
-                            best, best_sc, best_ctx = f, sc, c
-                if best is None:
-                    break
-                cur, cur_sc, ctx = best, best_sc, best_ctx
+                        if sc > cur_sc + 1e-9:
+                            cur, cur_sc, ctx, changed = f, sc, c, True
         return cur
 
     def drop_rules(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
