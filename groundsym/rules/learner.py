@@ -8,12 +8,15 @@ candidate of an operator when it raises
     S(R) = sum_e w_e log P(s'|s,a,R) - alpha * sum_r PEN(r)
 
 until no operator helps. Every candidate rule is completed by :func:`induce_outcomes` (A.7) on the
-examples it covers, and ``integrate`` removes the rules it overlaps, so on the training data each
-example is covered by at most one rule and the default rule takes the rest.
+examples it covers, and ``integrate`` removes the rules it overlaps. The one exception is
+AddExceptions, which adds a specialisation beside its rule: scoring follows the rule-set semantics
+(A.3) exactly, so an example two rules cover goes to the default rule, and each rule's outcomes
+are fitted on the examples it covers alone.
 
 Defaults (documented in docs/rules.md): ``alpha = 0.5`` and ``p_min = 1e-8`` (``1e-9`` for the
 default rule), as in the libPRADA demos and GLIB; the default rule's noise share is the weighted
-share of changed examples it covers, clipped to ``[0.01, 0.99]``.
+share of changed examples it covers, clipped to ``[0.001, 0.999]``; the final outcome
+probabilities give "no change" a pseudo-count of 0.5 (docs/rules.md).
 """
 
 from __future__ import annotations
