@@ -65,6 +65,9 @@ class ExampleTable:
     def __init__(self, examples: Sequence[Example], predicates: dict[str, int]):
         self.examples = list(examples)
         self.predicates = dict(predicates)
+        for e in self.examples:          # predicates the data uses but the caller did not declare
+            for a in e.state | e.succ:
+                self.predicates.setdefault(a.predicate, a.arity)
         n = len(self.examples)
         self.M = max((len(e.objects) for e in self.examples), default=1) or 1
         self.weights = np.array([e.weight for e in self.examples], dtype=float)
