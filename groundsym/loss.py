@@ -38,7 +38,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import UserError
-from .relational import INF, Encoded, canonical_forms, exact_state_distance, root_bounds, twin_groups
+from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms, enumerate_block,
+                         exact_state_distance, lock_codes, permuted_words, root_bounds, twin_groups)
 from .symbols import Symbol, binary_truth, dataset_arrays, unary_truth
 from .traces import Dataset
 
@@ -172,6 +173,7 @@ class Loss:
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
         self._truth_cache: dict[tuple, np.ndarray] = {}
+        self._qwords: dict[bytes, np.ndarray] = {}
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -232,10 +234,49 @@ class Loss:
         profile = _profiles(u, b, first)
         lock_sig = [tuple(sorted(e.lock.tolist())) for e in reps]
         hits = {}
-        for k, group in enumerate(members):
-            if len(group) == 1:
+        lone = [k for k, group in enumerate(members) if len(group) == 1]
+        if lone and u.shape[1] <= ENUMERATE_MAX:
+            table = _ClassTable(reps, rep_keys, profile, lock_sig)
+            for k in lone:
+                hits[k] = self._nearest_enumerated(k, table)
+        else:
+            for k in lone:
                 hits[k] = self._nearest_class(k, reps, rep_keys, profile, lock_sig)
         return Neighbourhood(cls, perms, members, hits)
+
+    def _nearest_enumerated(self, k: int, t: "_ClassTable") -> tuple[float, list[tuple[int, np.ndarray]]]:
+        """Nearest classes of class ``k`` by bit-parallel enumeration, in chunks in bound order."""
+        q = t.reps[k]
+        bound = profile_bound(t.profile, k, q.unary.shape[1])
+        bound[~t.compatible(k)] = INF
+        bound[k] = INF
+        order = np.argsort(bound, kind="stable")
+        order = order[bound[order] < INF]
+        cached = self._qwords.get(t.keys[k])
+        if cached is None:
+            if len(self._qwords) >= 4096:
+                self._qwords.clear()
+            sig = all_permutations(q.n_objects)
+            cached = self._qwords[t.keys[k]] = (permuted_words(q), lock_codes(q.lock[sig], t.base))
+        qw, ql = cached
+        best, found = INF, []
+        for start in range(0, len(order), 16):
+            chunk = order[start:start + 16]
+            if bound[chunk[0]] > best:
+                break
+            # only permutations that map the action's arguments onto the candidate's (a 1/M share
+            # for one argument) are enumerated, per lock pattern in the chunk
+            for lc in np.unique(t.locks[chunk]):
+                part = chunk[t.locks[chunk] == lc]
+                sel = np.flatnonzero(ql == lc)
+                if not len(sel):
+                    continue
+                d, arg = enumerate_block(qw[sel], ql[sel], t.words[part], t.locks[part])
+                best = min(best, float(d.min()))
+                found += [(float(d[i]), int(c), int(sel[arg[i]])) for i, c in enumerate(part)]
+        sig = all_permutations(q.n_objects)
+        found.sort(key=lambda f: f[1])
+        return best, [(c, np.argsort(sig[a])) for dd, c, a in found if dd == best < INF]
 
     def _encoded(self, u, b, lock, label, perms, i) -> Encoded:
         p = perms[i]
@@ -251,9 +292,15 @@ class Loss:
         # stage 1: candidates in order of the profile bound, each with its root bounds, which give
         # an upper bound on the nearest distance; stage 2: exact searches where the root bound allows
         order = [int(c) for c in np.argsort(bound, kind="stable") if bound[c] < INF]
-        lb, ub = root_bounds(q, [reps[c] for c in order])
-        best = float(ub.min()) if len(ub) else INF
-        keep = [(max(lb[i], bound[c]), c) for i, c in enumerate(order) if max(lb[i], bound[c]) <= best]
+        best, low = INF, []
+        for start in range(0, len(order), 8):
+            chunk = order[start:start + 8]
+            if bound[chunk[0]] > best:
+                break
+            lb, ub = root_bounds(q, [reps[c] for c in chunk])
+            best = min(best, float(ub.min()))
+            low += [(max(float(lb[i]), float(bound[c])), c) for i, c in enumerate(chunk)]
+        keep = [(lo, c) for lo, c in low if lo <= best]
         hits = []
         for low, c in sorted(keep):
             if low > best:
@@ -357,6 +404,21 @@ class Loss:
                 lp = norm - (d.reward[group[0]] - r) ** 2 / (2 * s2)
                 ll[group[0]] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
         return float(-ll.sum())
+
+
+class _ClassTable:
+    """The class representatives of one pass as arrays, for bit-parallel enumeration."""
+
+    def __init__(self, reps: list[Encoded], keys: list[bytes], profile: np.ndarray, lock_sig: list[tuple]):
+        self.reps, self.keys, self.profile = reps, keys, profile
+        self.words = _words(np.stack([np.concatenate([e.unary.ravel(), e.binary.ravel()]) for e in reps]))
+        self.base = max(int(max(e.lock.max() for e in reps)) + 1, 2)
+        self.locks = lock_codes(np.stack([e.lock for e in reps]), self.base)
+        self.labels = np.array([e.label for e in reps])
+        _, self.lock_group = np.unique(np.array([str(s) for s in lock_sig]), return_inverse=True)
+
+    def compatible(self, k: int) -> np.ndarray:
+        return (self.labels == self.labels[k]) & (self.lock_group == self.lock_group[k])
 
 
 @dataclass(frozen=True, eq=False)

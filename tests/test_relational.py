@@ -135,3 +135,19 @@ def test_nearest_on_scenes():
     res = nearest(query, None, cands)
     ref = [scene_distance(query, c)[0] for c in cands]
     assert res.indices == (int(np.argmin(ref)),) and res.distance == pytest.approx(min(ref))
+
+
+def test_bit_parallel_enumeration_matches_branch_and_bound():
+    from groundsym.relational import enumerate_distances
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        m = int(rng.integers(2, 7))
+        k, l = int(rng.integers(0, 3)), int(rng.integers(1, 4))
+        q = _random_encoded(rng, m, k, l, 0.3, 0)
+        cands = [_random_encoded(rng, m, k, l, float(rng.uniform(0.05, 0.6)), int(rng.integers(m)),
+                                 label=int(rng.random() < 0.2)) for _ in range(12)]
+        d, perms = enumerate_distances(q, cands)
+        for c, dd, p in zip(cands, d, perms):
+            assert dd == exact_state_distance(q, c)[0]
+            if dd < INF:
+                assert permutation_cost(q, c, p) == dd
