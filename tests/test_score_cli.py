@@ -138,3 +138,14 @@ def test_model_directory_loads_symbols_and_continuous_traces_when_present(learne
     assert "symbols" not in m.__dict__                     # lazy: nothing read yet
     assert m.symbols.predicates == {"u1": 1}
     assert len(m.traces.traces) == 4 and m.rules.rules == load_model(d / "model").rules.rules
+
+
+@pytest.mark.parametrize("kw, want", [({"alpha": -1.0}, "--alpha"), ({"p_min": 2.0}, "--p-min")])
+def test_learn_symbolic_model_refuses_bad_options(tmp_path, kw, want):
+    from groundsym.errors import UserError
+
+    true, meta = read_rules(KNOWN["blocks"])
+    ds = simulate(true, meta, 20, np.random.default_rng(0))
+    with pytest.raises(UserError, match=want):
+        learn_symbolic_model(ds, tmp_path / "m", seed=0, argv=[], progress=False, **kw)
+    assert not (tmp_path / "m").exists()
