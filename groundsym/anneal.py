@@ -49,6 +49,7 @@ class AnnealConfig:
     step: float = 0.3            # perturbation: centre moves ~ step x width, log-widths ~ step
     width_range: tuple[float, float] = (0.05, 2.0)  # shape of new widths, x the data's spread
     share_range: tuple[float, float] = (0.005, 0.3)  # a new symbol holds for this share of the data
+    p_moved: float = 0.5         # share of new centres drawn from objects/pairs a primitive moved
     chunk: int = 500             # evaluations per restart between checkpoints
 
     def __post_init__(self) -> None:
@@ -81,31 +82,42 @@ def _slots(cfg: AnnealConfig) -> list[tuple[int, str]]:
     return [(1, _slot_name(1, k)) for k in range(cfg.n_unary)] + [(2, _slot_name(2, k)) for k in range(cfg.n_binary)]
 
 
-_POINTS: dict[int, tuple[LossData, np.ndarray, np.ndarray]] = {}
+_POINTS: dict[int, tuple] = {}
 
 
-def _points(data: LossData) -> tuple[np.ndarray, np.ndarray]:
-    """All object feature vectors and all distinct-pair feature vectors of the data (memoised)."""
+def _points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Object and distinct-pair feature vectors of all scenes, and those of objects (pairs with an
+    object) that a primitive moved, before and after the move (memoised)."""
     hit = _POINTS.get(id(data))
     if hit is None or hit[0] is not data:
         m = data.features.shape[1]
+        off = ~np.eye(m, dtype=bool)
         unary = data.features.reshape(-1, data.features.shape[-1])
-        pairs = data.pairs[:, ~np.eye(m, dtype=bool)].reshape(-1, data.pairs.shape[-1])
+        pairs = data.pairs[:, off].reshape(-1, data.pairs.shape[-1])
+        moved = (np.abs(data.features[data.post] - data.features[data.pre]) / data.unary_scale).max(-1) \
+            > LossConfig().change_tol                                              # (T, M)
+        scenes = np.concatenate([data.pre, data.post])
+        mv = np.concatenate([moved, moved])
+        mu = data.features[scenes][mv]
+        pair_mv = (mv[:, :, None] | mv[:, None, :]) & off[None]
+        mp = data.pairs[scenes][pair_mv]
         _POINTS.clear()
-        hit = _POINTS[id(data)] = (data, unary, pairs)
-    return hit[1], hit[2]
+        hit = _POINTS[id(data)] = (data, unary, pairs, mu if len(mu) else unary, mp if len(mp) else pairs)
+    return hit[1], hit[2], hit[3], hit[4]
 
 
 def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
-    """A centre drawn from the data (an object or an ordered pair of distinct objects) and random
-    widths, scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform).
+    """A centre drawn from the data (an object or an ordered pair of distinct objects; half of the
+    time one that a primitive moved, before or after the move, since symbols should reflect what
+    primitives change) and random widths, scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform).
 
     Without the scaling most proposals are never or almost always true (random widths over several
     dimensions rarely fit the data), and a search wastes its re-seeds on them.
     """
-    unary, pairs = _points(data)
+    unary, pairs, moved_u, moved_p = _points(data)
     pts = unary if arity == 1 else pairs
-    centre = pts[int(rng.integers(len(pts)))]
+    pool = pts if rng.random() >= cfg.p_moved else (moved_u if arity == 1 else moved_p)
+    centre = pool[int(rng.integers(len(pool)))]
     scale = data.unary_scale if arity == 1 else data.pair_scale
     lo, hi = np.log(cfg.width_range)
     widths = scale * np.exp(rng.uniform(lo, hi, len(scale)))
