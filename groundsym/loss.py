@@ -39,7 +39,8 @@ import numpy as np
 
 from .errors import UserError
 from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms, enumerate_block,
-                         exact_state_distance, lock_codes, permuted_words, root_bounds, twin_groups)
+                         exact_state_distance, lock_codes, permutation_positions, permuted_words, root_bounds,
+                         twin_groups)
 from .symbols import Symbol, binary_truth, dataset_arrays, unary_truth
 from .traces import Dataset
 
@@ -257,8 +258,9 @@ class Loss:
             if len(self._qwords) >= 4096:
                 self._qwords.clear()
             sig = all_permutations(q.n_objects)
-            cached = self._qwords[t.keys[k]] = (permuted_words(q), lock_codes(q.lock[sig], t.base))
-        qw, ql = cached
+            keep = _one_order_of_twins(q)
+            cached = self._qwords[t.keys[k]] = (permuted_words(q, keep), lock_codes(q.lock[sig[keep]], t.base), keep)
+        qw, ql, keep = cached
         best, found = INF, []
         for start in range(0, len(order), 16):
             chunk = order[start:start + 16]
@@ -273,7 +275,7 @@ class Loss:
                     continue
                 d, arg = enumerate_block(qw[sel], ql[sel], t.words[part], t.locks[part])
                 best = min(best, float(d.min()))
-                found += [(float(d[i]), int(c), int(sel[arg[i]])) for i, c in enumerate(part)]
+                found += [(float(d[i]), int(c), int(keep[sel[arg[i]]])) for i, c in enumerate(part)]
         sig = all_permutations(q.n_objects)
         found.sort(key=lambda f: f[1])
         return best, [(c, np.argsort(sig[a])) for dd, c, a in found if dd == best < INF]
@@ -404,6 +406,22 @@ class Loss:
                 lp = norm - (d.reward[group[0]] - r) ** 2 / (2 * s2)
                 ll[group[0]] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
         return float(-ll.sum())
+
+
+def _one_order_of_twins(q: Encoded) -> np.ndarray:
+    """Indices of the permutations that keep interchangeable objects of ``q`` in increasing order.
+
+    Swapping two interchangeable objects leaves the permuted encoding unchanged, so one order of
+    each group gives the same minima (table cubes in the tower are mostly interchangeable).
+    """
+    pos = permutation_positions(q.n_objects)         # where each object of q lands
+    groups = twin_groups(q)
+    mask = np.ones(len(pos), dtype=bool)
+    for g in np.unique(groups):
+        objs = np.flatnonzero(groups == g)
+        for a, b in zip(objs[:-1], objs[1:]):
+            mask &= pos[:, a] < pos[:, b]
+    return np.flatnonzero(mask)
 
 
 class _ClassTable:

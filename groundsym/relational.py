@@ -326,6 +326,16 @@ def all_permutations(m: int) -> np.ndarray:
     return _ALL_PERMS[m]
 
 
+_POSITIONS: dict[int, np.ndarray] = {}
+
+
+def permutation_positions(m: int) -> np.ndarray:
+    """(m!, m) inverse of :func:`all_permutations`: where each object lands (memoised)."""
+    if m not in _POSITIONS:
+        _POSITIONS[m] = np.argsort(all_permutations(m), axis=1)
+    return _POSITIONS[m]
+
+
 def _words(bits: np.ndarray) -> np.ndarray:
     """Pack rows of 0/1 into 64-bit words: (N, W) -> (N, ceil(W / 64)) uint64."""
     packed = np.packbits(bits.astype(np.uint8), axis=1)
@@ -354,10 +364,10 @@ def _flat_bits(e: Encoded) -> np.ndarray:
     return np.concatenate([e.unary.ravel(), e.binary.ravel()])
 
 
-def permuted_words(q: Encoded) -> np.ndarray:
-    """Every permutation of ``q`` packed into 64-bit words: (m!, ceil(W / 64)) (for enumeration)."""
+def permuted_words(q: Encoded, which: np.ndarray | None = None) -> np.ndarray:
+    """Permutations of ``q`` (all, or the indices ``which``) packed into 64-bit words (for enumeration)."""
     idx = _bit_index(q.n_objects, q.unary.shape[1], q.binary.shape[2])
-    return _words(_flat_bits(q)[idx])
+    return _words(_flat_bits(q)[idx if which is None else idx[which]])
 
 
 def enumerate_distances(q: Encoded, cands: Sequence[Encoded],
@@ -746,7 +756,9 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
     ucode = _codes(unary) + (lock.astype(np.int64) << unary.shape[2])
     ecode = _codes(binary)
     col = _colours(ucode, ecode)
-    perms = np.argsort(col, axis=1, kind="stable")
+    # action arguments first (by lock), then by colour: candidates with the same arguments then
+    # hold them at the same canonical positions, which the enumeration kernel relies on
+    perms = np.lexsort((col, -lock.astype(np.int64)), axis=-1)
     bad = _untwinned_ties(ucode, ecode, col, perms) if m > 1 else np.zeros(0, dtype=np.int64)
     idx = np.arange(n)[:, None]
     codes = _encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
@@ -767,7 +779,8 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
 def _lexmin_encoding(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
                      col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The smallest encoding over all orders that keep objects sorted by colour."""
-    classes = [np.flatnonzero(col == c) for c in np.unique(col)]  # ascending colour, as argsort
+    colours = sorted(np.unique(col), key=lambda c: (-int(lock[np.flatnonzero(col == c)[0]]), c))
+    classes = [np.flatnonzero(col == c) for c in colours]  # arguments first, then ascending colour
     orders = np.array([np.concatenate(parts) for parts in
                        itertools.product(*(list(itertools.permutations(c)) for c in classes))], dtype=np.int64)
     rows = _encode_rows(unary[orders], binary[orders[:, :, None], orders[:, None, :]], lock[orders])
