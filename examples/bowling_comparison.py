@@ -156,7 +156,7 @@ def plot(rows: list[dict[str, Any]], methods: tuple[str, ...], title: str) -> by
     ax.set_ylabel("pins down after 2 throws")
     ax.set_ylim(0, 10.5)
     ax.set_title(title, fontsize=10)
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=len(methods), fontsize=8)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", bbox_inches="tight")
     return buf.getvalue()
