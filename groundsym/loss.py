@@ -259,6 +259,10 @@ class Loss:
                 self._qwords.clear()
             sig = all_permutations(q.n_objects)
             keep = _one_order_of_twins(q)
+            # compatible candidates hold their arguments at the front (canonical order): only
+            # permutations that bring q's arguments there can match
+            front = np.sort(q.lock)[::-1]
+            keep = keep[(q.lock[sig[keep]] == front).all(1)]
             cached = self._qwords[t.keys[k]] = (permuted_words(q, keep), lock_codes(q.lock[sig[keep]], t.base), keep)
         qw, ql, keep = cached
         best, found = INF, []
