@@ -7,6 +7,10 @@ offset and a speed change drawn from the episode's generator), so the same aim g
 outcomes, as the collisions of the paper's ODE simulation did. Fallen pins stay where they lie for
 the next throw. Each throw runs until everything has settled, so features are read at rest.
 
+Pin ids ``p1..pM`` are assigned in a random order per episode (option ``shuffle_ids``), as the
+relational methods assume: an id must not tell which spot a pin stands on, or a planner that
+copies a training action by argument name could exploit it where the features say nothing.
+
 What the learner sees per pin ``p1..pM``: its centre of mass (x, y, z) and its long axis (ux, uy, uz)
 in the world, ``y_i`` in R^6; pair features are the default ``y_i - y_j``. A scene's reward is the
 number of pins down in it; ``r_t`` after the t-th throw is therefore the pins down after the
@@ -28,7 +32,7 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.sim import SimOption, parse_options
+from groundsym.sim import SimOption, parse_bool, parse_options
 from groundsym.world import Scene
 
 from .bowling_world import PIN_COM_Z, PIN_HEIGHT, PIN_SPACING, ROW_DEPTH, Alley, rack_positions, save_png
@@ -64,6 +68,8 @@ class BowlingSim:
                                    "the 10 spots, drawn per episode (the paper's symbol data uses 5)"),
         SimOption("spots", _spot_list, (), "fixed spots instead of a random subset, e.g. 1,5,7,10 "
                                            "(bowling numbers: 1 head pin, 7-10 back row)"),
+        SimOption("shuffle_ids", parse_bool, True, "name the pins p1..pM in a random order per episode, so an "
+                                                  "id says nothing about a pin's spot (false: in spot order)"),
         SimOption("noise", float, 0.01, "standard deviation in metres of the ball's lateral start offset"),
         SimOption("speed", float, 6.0, "mean ball speed in m/s (regulation 8 m/s, Froude-scaled)"),
         SimOption("speed_noise", float, 0.05, "relative standard deviation of the ball's speed"),
@@ -100,7 +106,10 @@ class BowlingSim:
             spots = tuple(range(1, N_SPOTS + 1))
         else:
             spots = tuple(int(s) + 1 for s in np.sort(self.rng.choice(N_SPOTS, size=n, replace=False)))
-        self.spots = spots
+        order = self.rng.permutation(len(spots))  # drawn always: the stream after it ignores shuffle_ids
+        if self.options["shuffle_ids"]:
+            spots = tuple(spots[i] for i in order)
+        self.spots = spots                        # spots[i] is where pin objects[i] stands
         self.objects = tuple(f"p{i + 1}" for i in range(len(spots)))
         self.alley.build(rack_positions()[np.array(spots) - 1])
         self.alley.run(1.0)

@@ -16,6 +16,15 @@ from sims.bowling import BowlingSim, truth_atoms
 from sims.bowling_world import PIN_COM_Z, PIN_SPACING, ROW_DEPTH, rack_positions
 
 
+def pin(sim: BowlingSim, spot: int) -> str:
+    """The id of the pin standing on rack ``spot`` this episode (ids are shuffled per episode)."""
+    return sim.objects[sim.spots.index(spot)]
+
+
+def throw(sim: BowlingSim, primitive: str, spot: int):
+    return sim.step(Atom(primitive, (pin(sim, spot),)))
+
+
 def fallen_spots(sim: BowlingSim, scene) -> set[int]:
     """Rack spot numbers of the pins that are not upright in ``scene``."""
     return {sim.spots[i] for i, o in enumerate(scene.objects) if Atom("upright", (o,)) not in scene.truth}
@@ -33,7 +42,7 @@ def test_implements_the_sim_protocol_and_is_registered():
         assert sim.feature_names == ("x", "y", "z", "ux", "uy", "uz")
         assert sim.primitives == {"throwAtCenter": 1, "throwRightOfCenter": 1}
         scene = sim.reset(3)
-        assert scene.objects == ("p1", "p2", "p3", "p4", "p5")
+        assert sorted(scene.objects) == ["p1", "p2", "p3", "p4", "p5"]
         assert len(sim.actions()) == 10
 
 
@@ -41,7 +50,7 @@ def test_fresh_rack_matches_the_regulation_triangle(rack):
     """Spots 20 cm apart on a 60 cm triangle, pins standing at rest, hand-counted relations."""
     scene = rack.reset(0)
     feats = scene.features
-    np.testing.assert_allclose(feats[:, :2], rack_positions(), atol=1e-3)
+    np.testing.assert_allclose(feats[:, :2], rack_positions()[np.array(rack.spots) - 1], atol=1e-3)
     np.testing.assert_allclose(feats[:, 2], PIN_COM_Z, atol=1e-3)
     np.testing.assert_allclose(feats[:, 3:], np.tile([0, 0, 1], (10, 1)), atol=3e-3)  # < 0.2 degrees
     corners = rack_positions()[[0, 6, 9]]
@@ -64,7 +73,7 @@ def test_straight_throw_at_the_head_pin_knocks_down_several(rack):
     counts = []
     for seed in range(4):
         rack.reset(seed)
-        scene = rack.step(Atom("throwAtCenter", ("p1",)))
+        scene = throw(rack, "throwAtCenter", 1)
         down = fallen_spots(rack, scene)
         assert 1 in down
         assert scene.reward == len(down)
@@ -77,12 +86,13 @@ def test_throw_down_an_empty_lane_knocks_only_that_column():
     with BowlingSim(spots="2,8,6,10") as sim:
         for seed in range(3):
             scene = sim.reset(seed)
-            assert Atom("sameColumn", ("p1", "p2")) in scene.truth
-            after = sim.step(Atom("throwAtCenter", ("p1",)))
+            assert Atom("sameColumn", (pin(sim, 2), pin(sim, 8))) in scene.truth
+            after = throw(sim, "throwAtCenter", 2)
             assert fallen_spots(sim, after) == {2, 8}
             assert after.reward == 2.0
             # the untouched pins have not moved
-            np.testing.assert_allclose(after.features[2:], scene.features[2:], atol=2e-3)
+            others = [sim.spots.index(6), sim.spots.index(10)]
+            np.testing.assert_allclose(after.features[others], scene.features[others], atol=2e-3)
 
 
 def test_right_of_the_rightmost_pin_is_a_gutter_ball():
@@ -91,38 +101,40 @@ def test_right_of_the_rightmost_pin_is_a_gutter_ball():
     with BowlingSim(spots="7,10") as sim:
         for seed in range(3):
             sim.reset(seed)
-            assert fallen_spots(sim, sim.step(Atom("throwRightOfCenter", ("p2",)))) == set()
+            assert fallen_spots(sim, throw(sim, "throwRightOfCenter", 10)) == set()
             sim.reset(seed)
-            assert fallen_spots(sim, sim.step(Atom("throwRightOfCenter", ("p1",)))) == {7}
+            assert fallen_spots(sim, throw(sim, "throwRightOfCenter", 7)) == {7}
             sim.reset(seed)
-            assert fallen_spots(sim, sim.step(Atom("throwAtCenter", ("p2",)))) == {10}
+            assert fallen_spots(sim, throw(sim, "throwAtCenter", 10)) == {10}
 
 
 def test_fallen_pins_stay_for_the_second_throw():
     """A second throw down the same empty column finds the pins where the first left them."""
     with BowlingSim(spots="4,9", noise=0.0, speed_noise=0.0) as sim:
         sim.reset(0)
-        first = sim.step(Atom("throwAtCenter", ("p2",)))          # spot 9, x = +0.1
+        first = throw(sim, "throwAtCenter", 9)                     # x = +0.1
         assert fallen_spots(sim, first) == {9}
-        second = sim.step(Atom("throwAtCenter", ("p1",)))         # spot 4, x = -0.2
+        second = throw(sim, "throwAtCenter", 4)                    # x = -0.2
         assert fallen_spots(sim, second) == {4, 9}
         assert second.reward == 2.0
         # pin 9 lay still while the ball passed 30 cm to its left
-        np.testing.assert_allclose(second.features[1], first.features[1], atol=2e-3)
+        nine = sim.spots.index(9)
+        np.testing.assert_allclose(second.features[nine], first.features[nine], atol=2e-3)
 
 
 def test_a_pin_on_its_side_is_not_upright_and_its_axis_is_horizontal():
     """Lay a pin down by hand (rotated 90 degrees about x), let it settle, read its features."""
     with BowlingSim(spots="1,7") as sim:
         sim.reset(0)
-        body, client = sim.alley.pins[1], sim.alley.client
+        k = sim.spots.index(7)
+        body, client = sim.alley.pins[k], sim.alley.client
         quat = pb.getQuaternionFromEuler((math.pi / 2, 0, 0))
         pb.resetBasePositionAndOrientation(body, (-0.3, 0.6, 0.05), quat, physicsClientId=client)
         sim.alley.run(3.0)
         scene = sim.scene()
-        lying = scene.features[1]
-        assert Atom("upright", ("p2",)) not in scene.truth
-        assert Atom("upright", ("p1",)) in scene.truth
+        lying = scene.features[k]
+        assert Atom("upright", (pin(sim, 7),)) not in scene.truth
+        assert Atom("upright", (pin(sim, 1),)) in scene.truth
         # uz: the axis lies in the deck plane, head down by asin((4.0 - 2.1) / 14.4) = 7.4 degrees:
         # the radii of belly and head and the distance of their centres, as a real pin lies
         assert -0.2 < lying[5] < -0.05
@@ -135,7 +147,7 @@ def test_fallen_pins_after_a_throw_lie_flat_or_lean():
     """Every pin the physics knocked down has its axis far from vertical."""
     with BowlingSim() as sim:
         sim.reset(1)
-        scene = sim.step(Atom("throwRightOfCenter", ("p1",)))
+        scene = throw(sim, "throwRightOfCenter", 1)
         down = [i for i, o in enumerate(scene.objects) if Atom("upright", (o,)) not in scene.truth]
         assert len(down) >= 3
         on_deck = [i for i in down if scene.features[i, 2] > -0.01]
@@ -168,6 +180,22 @@ def test_options_read_back_from_json_rebuild_the_same_sim():
         assert np.array_equal(again.reset(4).features, first)
 
 
+def test_pin_ids_are_shuffled_per_episode_unless_asked_not_to():
+    """An id says nothing about a pin's spot: each spot gets each id in some episode; off: spot order."""
+    with BowlingSim(pins=3, spots="1,5,9") as sim:
+        seen = set()
+        for seed in range(12):
+            scene = sim.reset(seed)
+            for i, spot in enumerate(sim.spots):
+                np.testing.assert_allclose(scene.features[i, :2], rack_positions()[spot - 1], atol=1e-3)
+            seen.add(pin(sim, 1))
+        assert seen == {"p1", "p2", "p3"}
+    with BowlingSim(spots="1,5,9", shuffle_ids="false") as sim:
+        for seed in range(3):
+            sim.reset(seed)
+            assert sim.spots == (1, 5, 9)
+
+
 def test_small_worlds_use_random_subsets_of_the_rack():
     with BowlingSim(pins=5) as sim:
         racks = set()
@@ -176,7 +204,7 @@ def test_small_worlds_use_random_subsets_of_the_rack():
             assert len(scene.objects) == 5 and len(set(sim.spots)) == 5
             spots = rack_positions()[np.array(sim.spots) - 1]
             np.testing.assert_allclose(scene.features[:, :2], spots, atol=1e-3)
-            racks.add(sim.spots)
+            racks.add(tuple(sorted(sim.spots)))
         assert len(racks) > 1
 
 
