@@ -295,14 +295,16 @@ def aggregate(out: Path, cfg: EvalConfig, runs: int, optimum: float | None,
 
 
 def _grounding_summary(grounding: Mapping[int, list[Any]]) -> dict[str, Any]:
-    """Mean F1 per symbol-data size of each learned symbol's best-matching relation."""
+    """Per symbol-data size: how many runs learned a symbol whose best match is each relation, and
+    its mean F1 over those runs (``u1~inhand``: unary symbol u1 matched ``inhand``)."""
     out = {}
     for N, reports in grounding.items():
         f1s: dict[str, list[float]] = {}
         for rep in reports:
             for r in rep:
                 f1s.setdefault(f"{r.get('symbol')}~{r.get('best_match')}", []).append(float(r.get("f1", 0.0)))
-        out[str(N)] = {k: float(np.mean(v)) for k, v in sorted(f1s.items())}
+        out[str(N)] = {"runs": len(reports),
+                       "matches": {k: {"runs": len(v), "mean_f1": float(np.mean(v))} for k, v in sorted(f1s.items())}}
     return out
 
 
