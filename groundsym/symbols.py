@@ -140,6 +140,10 @@ class SymbolSet:
         meta = {k: v for k, v in ds.meta.items() if k in ("sim", "options", "seed")}
         return SymbolicDataset(traces, self.predicates, dict(ds.primitives), meta)
 
+    def save_symbols(self, path: str | Path, **kwargs: Any) -> None:
+        """Write this set as ``symbols.json`` (see the module function :func:`save_symbols`)."""
+        save_symbols(path, self, **kwargs)
+
     def check_features(self, feature_names: Sequence[str], where: str) -> None:
         """UserError unless ``feature_names`` are the ones the symbols were learned on."""
         if tuple(feature_names) != self.feature_names:

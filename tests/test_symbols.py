@@ -72,6 +72,8 @@ def test_symbols_file_round_trip(tmp_path):
         assert np.array_equal(a.centre, b.centre) and np.array_equal(a.widths, b.widths)
     doc = json.loads(path.read_text())
     assert doc["schema"] == "groundsym.symbols/1" and doc["symbols"][0]["share"] == 0.1
+    syms.save_symbols(tmp_path / "again.json")
+    assert load_symbols(tmp_path / "again.json").predicates == syms.predicates
 
 
 @pytest.mark.parametrize("edit, field", [
