@@ -5,7 +5,8 @@ state-action pairs at M = 7 (the loss's transition predictor). States are abstra
 traces of a kinematic stacking world through the intended symbols (``inhand``, ``on``), or of a
 traces file given with ``--traces``. The naive pass enumerates every permutation of every
 candidate once (vectorised numpy, as the paper's kernel) and compares each query against all.
-Prints identical-minimum checks and speed ratios measured in this one run.
+Prints identical-minimum checks and speed ratios measured in this one run (CPU seconds of this
+process, so other load on a shared machine does not distort them).
 
     .venv/bin/python benchmarks/bench_distance.py [--traces FILE] [--pairs 40]
 """
@@ -47,11 +48,11 @@ def per_pair(enc, n_pairs, rng):
         i, j = rng.choice(len(enc), 2, replace=False)
         if enc[i].label == enc[j].label:
             pairs.append((i, j))
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     fast = [exact_state_distance(enc[i], enc[j])[0] for i, j in pairs]
-    t1 = time.perf_counter()
+    t1 = time.process_time()
     naive = [naive_state_distance(enc[i], enc[j])[0] for i, j in pairs]
-    t2 = time.perf_counter()
+    t2 = time.process_time()
     return fast == naive, (t1 - t0) / n_pairs, (t2 - t1) / n_pairs
 
 
@@ -104,11 +105,11 @@ def main() -> int:
         same, tf, tn = per_pair(enc, n, rng)
         print(f"per pair {name}: {n} pairs, identical minima: {same}; fast {tf * 1e3:.3f} ms, "
               f"naive {tn * 1e3:.1f} ms, ratio {tn / tf:.0f}x")
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     fast, nb = fast_pass(data, u, b)
-    t1 = time.perf_counter()
+    t1 = time.process_time()
     naive = naive_pass(enc7)
-    t2 = time.perf_counter()
+    t2 = time.process_time()
     singles = sum(len(g) == 1 for g in nb.members)
     print(f"leave-one-out NN pass over {len(enc7)} pairs (M=7): identical minima: {bool(np.array_equal(fast, naive))}; "
           f"fast {t1 - t0:.3f} s, naive {t2 - t1:.2f} s, ratio {(t2 - t1) / (t1 - t0):.0f}x "
