@@ -238,6 +238,7 @@ def test_truth_relations_from_hand_made_features():
     ({"spots": "1,x"}, "spots=1,x"),
     ({"spots": "1,2", "pins": "3"}, "pins=3"),
     ({"timestep": "0.5"}, "timestep=0.5"),
+    ({"shuffle_ids": "maybe"}, "shuffle_ids=maybe"),
     ({"colour": "red"}, "colour"),
 ])
 def test_bad_options_are_one_line_user_errors(options, field):
