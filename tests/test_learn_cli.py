@@ -107,3 +107,21 @@ def test_user_errors(traces, tmp_path, capsys):
     _one_line_error(capsys, ["show", str(tmp_path / "bad.json")], "bad.json: symbols[0].arity: missing")
     _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "y"), "--unary", "0", "--binary", "0"],
                     "need at least one symbol")
+
+
+def test_loss_settings_reach_the_loss(traces, tmp_path, capsys):
+    """`--loss transition_weight=0` removes the prediction term from the loss the search minimises
+    and is recorded in symbols.json; the other terms keep their default weights."""
+    assert _learn(traces, tmp_path / "w0", "--seed", "1", "--loss", "transition_weight=0 reg_weight=2") == 0
+    doc = json.loads((tmp_path / "w0" / "symbols.json").read_text())
+    assert doc["config"]["loss"]["transition_weight"] == 0.0 and doc["config"]["loss"]["reg_weight"] == 2.0
+    assert doc["config"]["loss"]["effect_weight"] == 1.0
+    assert doc["loss"]["transition"] == 0.0
+    lt = doc["loss"]
+    assert lt["total"] == pytest.approx(lt["effect"] + lt["reward"] + lt["regulariser"])
+    _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--loss", "speed=3"],
+                    "--loss speed", "unknown setting")
+    _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--loss", "noise=0.7"],
+                    "--loss", "noise must be in (0, 0.5)")
+    _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--loss", "reward_weight=nan"],
+                    "--loss reward_weight=nan", "finite")

@@ -4,8 +4,10 @@ NID rules and a reward model on the abstracted data; or the rules alone from sym
 from __future__ import annotations
 
 import argparse
+import math
 import shutil
 import sys
+from dataclasses import fields
 from pathlib import Path
 
 from ..anneal import AnnealConfig, anneal, default_workers
@@ -14,6 +16,7 @@ from ..fileio import file_sha256
 from ..loss import LossConfig, prepare
 from ..progress import Progress
 from ..provenance import provenance
+from ..sim import split_key_values
 from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
 from ..symbols import SymbolSet, dataset_arrays, save_symbols, share_true
 from ..traces import SCHEMA as TRACES_SCHEMA, file_schema, read_traces
@@ -43,9 +46,35 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="save the search state here after every round; an existing file is resumed")
     p.add_argument("--model-data", type=Path, default=None, metavar="FILE",
                    help="continuous traces to abstract and learn rules from (default: DATA)")
+    p.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
+                   help="loss setting, repeatable: " + ", ".join(LOSS_KEYS) + " (defaults: docs/symbols.md; "
+                        "bowling needs transition_weight=0.15, docs/bowling.md)")
     p.add_argument("--alpha", type=float, default=None, help="rule learning: complexity penalty (passed through)")
     p.add_argument("--p-min", type=float, default=None, help="rule learning: noise outcome floor (passed through)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+LOSS_KEYS = tuple(f.name for f in fields(LossConfig))
+
+
+def loss_config(items: list[str]) -> LossConfig:
+    """``--loss key=value`` settings over the defaults; a bad key or value is one line (exit 2)."""
+    given = split_key_values(items, "--loss")
+    values: dict[str, float | None] = {}
+    for key, text in given.items():
+        if key not in LOSS_KEYS:
+            raise UserError(f"--loss {key}: unknown setting (known: {', '.join(LOSS_KEYS)})")
+        try:
+            v = None if text.lower() == "none" and key == "reward_sigma" else float(text)
+        except ValueError:
+            raise UserError(f"--loss {key}={text}: expected a number") from None
+        if v is not None and not math.isfinite(v):
+            raise UserError(f"--loss {key}={text}: expected a finite number")
+        values[key] = v
+    try:
+        return LossConfig(**values)
+    except ValueError as exc:
+        raise UserError(f"--loss: {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,7 +101,7 @@ def learn_symbols(args: argparse.Namespace) -> SymbolSet:
     ds = read_traces(args.data)
     if args.unary + args.binary == 0:
         raise UserError("--unary and --binary: need at least one symbol to learn")
-    loss_cfg = LossConfig()
+    loss_cfg = loss_config(args.loss)
     data = prepare(ds, loss_cfg, str(args.data))
     if args.evals < args.restarts:
         raise UserError(f"--evals: {args.evals} is less than one evaluation per restart ({args.restarts})")
