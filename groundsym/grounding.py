@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UserError
-from .symbols import SymbolSet
+from .symbols import Symbol, SymbolSet
 from .traces import Dataset
 
 
@@ -104,3 +104,44 @@ def _best(symbol: str, arity: int, cands: list) -> Match:
         return Match(symbol, arity, None, "same", 0.0, 0.0, 0.0)
     (p, r, f), name, order = max(cands, key=lambda c: (c[0][2], c[2] == "same"))
     return Match(symbol, arity, name, order, p, r, f)
+
+
+def fit_relation_symbol(name: str, relation: str, ds: Dataset, swapped: bool = False,
+                        scales: tuple[float, ...] = (1.0, 1.25, 1.5, 2.0, 3.0, 4.0)) -> Symbol | None:
+    """The simulator's relation ``relation`` written as an RBF symbol: the yardstick a learned symbol
+    is measured against (evaluation only; it reads the ground truth).
+
+    The centre is the middle of the positive examples' bounding box and the widths are that box's
+    half-extents (at least 1 mm, or 1e-3 of the feature's spread), scaled by the factor from
+    ``scales`` that gives the best F1 on ``ds``. ``swapped`` fits the relation with its arguments
+    exchanged ("under" for "on"). None when the relation never holds in ``ds``.
+    """
+    true_u, true_b = truth_arrays(ds)
+    feats = np.stack([np.asarray(s.features, float) for t in ds.traces for s in t.scenes])
+    if relation in true_u:
+        arity, truth, space = 1, true_u[relation], feats
+    elif relation in true_b:
+        arity = 2
+        truth = true_b[relation].transpose(0, 2, 1) if swapped else true_b[relation]
+        space = np.stack([s.pairs() for t in ds.traces for s in t.scenes])
+        truth = truth & ~np.eye(truth.shape[1], dtype=bool)[None]
+    else:
+        raise UserError(f"grounding: {relation}: not a ground-truth relation of the traces "
+                        f"(known: {', '.join(sorted([*true_u, *true_b]))})")
+    pos = space[truth]
+    if not len(pos):
+        return None
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    spread = space.reshape(-1, space.shape[-1]).std(axis=0)
+    half = np.maximum((hi - lo) / 2, np.maximum(1e-3, 1e-3 * spread))
+    centre = (lo + hi) / 2
+    best = None
+    for k in scales:
+        sym = Symbol(name, arity, centre, half * k)
+        pred = sym.holds(space)
+        if arity == 2:
+            pred = pred & ~np.eye(pred.shape[1], dtype=bool)[None]
+        f1 = scores(pred, truth)[2]
+        if best is None or f1 > best[0]:
+            best = (f1, sym)
+    return best[1]

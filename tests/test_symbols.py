@@ -135,3 +135,23 @@ def test_grounding_needs_truth():
                     for t in ds.traces], ds.feature_names, ds.primitives)
     with pytest.raises(UserError, match="no ground-truth"):
         match_symbols(SymbolSet(tuple(intended_symbols()), NAMES), bare)
+
+
+def test_relations_fitted_as_rbf_symbols_match_them():
+    """The yardstick for learned symbols: ground-truth relations written as RBFs reproduce them."""
+    from groundsym.errors import UserError
+    from groundsym.grounding import fit_relation_symbol, match_symbols
+    from tests.test_loss import kinematic_tower
+
+    ds = kinematic_tower(8, seed=3)
+    u = fit_relation_symbol("u1", "inhand", ds)
+    on = fit_relation_symbol("b1", "on", ds)
+    under = fit_relation_symbol("b2", "on", ds, swapped=True)
+    got = {m.symbol: m for m in match_symbols(SymbolSet((u, on, under), ("x", "y", "z", "size")), ds)}
+    assert got["u1"].best_match == "inhand" and got["u1"].f1 >= 0.95
+    assert got["b1"].best_match == "on" and got["b1"].argument_order == "same" and got["b1"].f1 >= 0.9
+    assert got["b2"].best_match == "on" and got["b2"].argument_order == "swapped" and got["b2"].f1 >= 0.9
+    # "under" is "on" mirrored: the same widths, the centre negated
+    np.testing.assert_allclose(under.centre, -on.centre)
+    with pytest.raises(UserError, match="nonsense: not a ground-truth relation"):
+        fit_relation_symbol("u9", "nonsense", ds)

@@ -1,0 +1,97 @@
+"""Was the annealing budget of a `groundsym evaluate` run enough? Learned symbols against the intended ones.
+
+For every finished unit of an evaluation folder, the unit's symbol data is collected again (same
+seeds, so the same traces), and the paper's loss is evaluated for the symbols the task intends
+(the simulator's relations written as RBF symbols, `groundsym.grounding.fit_relation_symbol`;
+binary ones in either argument order, `on` or `above`, whichever the loss prefers) and for no
+symbol at all. Two questions per unit:
+
+* search: is the learned loss at most the intended symbols' loss? Then the budget sufficed to find
+  what the loss asks for, and a poor grounding is the loss's choice, not the search's failure;
+* loss: do the intended symbols beat no symbol? If not, no budget would find them on that data.
+
+    python examples/fig2_loss_check.py results/fig2/cubes [--unary inhand] [--binary on,above]
+    python examples/fig2_loss_check.py results/fig2/balls --unary inhand,ball
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from groundsym.collect import collect_traces  # noqa: E402
+from groundsym.experiment import EvalConfig, unit_seeds  # noqa: E402
+from groundsym.fileio import atomic_write_json, atomic_write_text, read_json  # noqa: E402
+from groundsym.grounding import fit_relation_symbol  # noqa: E402
+from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
+from groundsym.registry import make_sim  # noqa: E402
+from groundsym.symbols import Symbol  # noqa: E402
+
+
+def never(name: str, arity: int, n_features: int) -> Symbol:
+    """A symbol that holds nowhere (pruned by the loss: its literals count as predicted right)."""
+    return Symbol(name, arity, np.full(n_features, 1e3), np.full(n_features, 1e-3))
+
+
+def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int) -> dict[str, float]:
+    """Loss of the intended symbol set (best binary relation and order) and of no symbol."""
+    n = len(ds.feature_names)
+    us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
+    empty_b = [never(f"b{i + 1}", 2, n) for i in range(n_binary)]
+    best = math.inf
+    for rel, swapped in itertools.product(binary, (False, True)):
+        b = fit_relation_symbol("b1", rel, ds, swapped=swapped)
+        if b is not None:
+            best = min(best, loss([*us, b, *empty_b[1:]]).total)
+    nothing = loss([never(f"u{i + 1}", 1, n) for i in range(len(unary))] + empty_b).total
+    return {"intended": best, "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("folder", type=Path, help="an evaluation folder (config.json, runs/)")
+    ap.add_argument("--unary", default="inhand", help="intended unary relations (default inhand)")
+    ap.add_argument("--binary", default="on,above", help="candidate binary relations (default on,above)")
+    args = ap.parse_args()
+    cfg_doc = read_json(args.folder / "config.json")["config"]
+    cfg = EvalConfig(**{**cfg_doc, **{k: tuple(cfg_doc[k]) for k in ("methods", "symbol_data", "model_traces",
+                                                                     "truth_symbols")}})
+    sim = make_sim(cfg.sim, dict(cfg.sim_options))
+    rows = []
+    for path in sorted((args.folder / "runs").glob("N*-run*.json")):
+        unit = read_json(path)
+        seeds = unit_seeds(cfg, unit["symbol_data"], unit["run"])
+        ds = collect_traces(sim, max(1, math.ceil(unit["symbol_data"] / cfg.trace_length)), cfg.trace_length,
+                            seeds["symbol_data"], progress=False)
+        loss = Loss(prepare(ds, LossConfig(), str(path)))
+        got = intended_losses(ds, loss, args.unary.split(","), args.binary.split(","), cfg.binary)
+        got.update(N=unit["symbol_data"], run=unit["run"], learned=unit["report"]["loss"]["total"])
+        rows.append(got)
+        print(f"{path.name}: learned {got['learned']:.1f}, intended {got['intended']:.1f}, "
+              f"{'+'.join(args.unary.split(','))} alone {got['unary_only']:.1f}, no symbol {got['nothing']:.1f}",
+              file=sys.stderr, flush=True)
+    lines = ["| symbol data | units | learned loss <= intended | intended < no symbol | mean learned | "
+             "mean intended | mean no symbol |", "|---:|---:|---:|---:|---:|---:|---:|"]
+    for N in sorted({r["N"] for r in rows}):
+        rs = [r for r in rows if r["N"] == N]
+        search = sum(r["learned"] <= r["intended"] + 1e-6 for r in rs)
+        prefers = sum(r["intended"] < r["nothing"] for r in rs)
+        lines.append(f"| {N} | {len(rs)} | {search} | {prefers} | {np.mean([r['learned'] for r in rs]):.1f} | "
+                     f"{np.mean([r['intended'] for r in rs]):.1f} | {np.mean([r['nothing'] for r in rs]):.1f} |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    atomic_write_json(args.folder / "loss-check.json", {"unary": args.unary, "binary": args.binary, "rows": rows})
+    atomic_write_text(args.folder / "loss-check.md", text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
