@@ -69,18 +69,21 @@ def main() -> int:
             for _ in range(args.random):
                 cand = [_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
                 random.append(test_loss(cand).total)
+        q1, med, q3 = (float(x) for x in np.percentile(random, [25, 50, 75]))
         rows.append({"n": n, "learned_mean": float(np.mean(learned)), "learned_std": float(np.std(learned)),
                      "random_mean": float(np.mean(random)), "random_std": float(np.std(random)),
-                     "learned": learned})
+                     "random_median": med, "random_q1": q1, "random_q3": q3,
+                     "learned": learned, "random": random})
         print(f"N={n}: learned {np.mean(learned):.1f} +- {np.std(learned):.1f}, "
-              f"random {np.mean(random):.1f} +- {np.std(random):.1f}", file=sys.stderr)
+              f"random median {med:.1f} (quartiles {q1:.1f}, {q3:.1f})", file=sys.stderr)
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(args.out / "fig2a.json", {"train": str(args.train), "test": str(args.test),
                                                 "test_transitions": test.n_transitions, "evals": args.evals,
                                                 "seeds": args.seeds, "rows": rows})
-    table = ["| training transitions | learned symbols | random symbols |", "|---|---|---|"]
-    table += [f"| {r['n']} | {r['learned_mean']:.1f} +- {r['learned_std']:.1f} | "
-              f"{r['random_mean']:.1f} +- {r['random_std']:.1f} |" for r in rows]
+    table = ["| training transitions | learned symbols: mean +- sd over seeds | random symbols: median "
+             "[quartiles] | random: mean |", "|---|---|---|---|"]
+    table += [f"| {r['n']} | {r['learned_mean']:.1f} +- {r['learned_std']:.1f} | {r['random_median']:.1f} "
+              f"[{r['random_q1']:.1f}, {r['random_q3']:.1f}] | {r['random_mean']:.1f} |" for r in rows]
     text = (f"Loss on {test.n_transitions} held-out transitions ({args.test}), lower is better\n\n"
             + "\n".join(table) + "\n")
     atomic_write_text(args.out / "fig2a.md", text)
@@ -92,8 +95,11 @@ def main() -> int:
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5, 3.6))
     ns = [r["n"] for r in rows]
-    ax.errorbar(ns, [r["learned_mean"] for r in rows], [r["learned_std"] for r in rows], marker="o", label="learned")
-    ax.errorbar(ns, [r["random_mean"] for r in rows], [r["random_std"] for r in rows], marker="s", label="random")
+    ax.errorbar(ns, [r["learned_mean"] for r in rows], [r["learned_std"] for r in rows], marker="o",
+                label="learned (mean, sd)")
+    med = np.array([r["random_median"] for r in rows])
+    iqr = np.array([[m - r["random_q1"], r["random_q3"] - m] for m, r in zip(med, rows)]).T
+    ax.errorbar(ns, med, iqr, marker="s", label="random (median, quartiles)")
     ax.set_xscale("log")
     ax.set_xticks(ns, [str(n) for n in ns])
     ax.set_xlabel("training transitions")
