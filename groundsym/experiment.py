@@ -294,18 +294,45 @@ def aggregate(out: Path, cfg: EvalConfig, runs: int, optimum: float | None,
     return {"schema": RESULTS_SCHEMA, "methods": rows, "optimum": optimum, "meta": meta}
 
 
+GOOD_F1 = 0.8   # a relation counts as found in a run when some symbol matches it with at least this F1
+
+
 def _grounding_summary(grounding: Mapping[int, list[Any]]) -> dict[str, Any]:
     """Per symbol-data size: how many runs learned a symbol whose best match is each relation, and
-    its mean F1 over those runs (``u1~inhand``: unary symbol u1 matched ``inhand``)."""
+    its mean F1 over those runs (``u1~inhand``: unary symbol u1 matched ``inhand``); and per
+    relation, in how many runs some symbol matched it with F1 >= ``GOOD_F1`` (``found``)."""
     out = {}
     for N, reports in grounding.items():
         f1s: dict[str, list[float]] = {}
+        found: dict[str, int] = {}
         for rep in reports:
+            best: dict[str, float] = {}
             for r in rep:
                 f1s.setdefault(f"{r.get('symbol')}~{r.get('best_match')}", []).append(float(r.get("f1", 0.0)))
+                rel = r.get("best_match")
+                if rel is not None:
+                    best[rel] = max(best.get(rel, 0.0), float(r.get("f1", 0.0)))
+            for rel, f in best.items():
+                found[rel] = found.get(rel, 0) + (f >= GOOD_F1)
         out[str(N)] = {"runs": len(reports),
-                       "matches": {k: {"runs": len(v), "mean_f1": float(np.mean(v))} for k, v in sorted(f1s.items())}}
+                       "matches": {k: {"runs": len(v), "mean_f1": float(np.mean(v))} for k, v in sorted(f1s.items())},
+                       "found": dict(sorted(found.items()))}
     return out
+
+
+def grounding_table(results: Mapping[str, Any]) -> str:
+    """Markdown: per symbol-data size, the runs in which each relation was learned (F1 >= GOOD_F1)."""
+    summary = results.get("meta", {}).get("grounding") or {}
+    if not summary:
+        return ""
+    rels = sorted({rel for v in summary.values() for rel in v.get("found", {})})
+    lines = ["", f"Grounding of the learned symbols on each run's held-out model data: runs in which some "
+             f"symbol matches the relation with F1 >= {GOOD_F1}", "",
+             "| symbol data | runs | " + " | ".join(rels) + " |", "|---:|---:|" + "---:|" * len(rels)]
+    for N in sorted(summary, key=int):
+        v = summary[N]
+        lines.append(f"| {N} | {v['runs']} | " + " | ".join(str(v.get("found", {}).get(r, 0)) for r in rels) + " |")
+    return "\n".join(lines) + "\n"
 
 
 # ----------------------------------------------------------------------------- outputs
@@ -320,7 +347,7 @@ def markdown_table(results: Mapping[str, Any]) -> str:
         share = f"{100 * r['share_of_optimum']:.1f}%" if r["share_of_optimum"] is not None else "-"
         lines.append(f"| {r['symbol_data']} | {r['model_traces']} | {r['method']} | {r['mean']:.4g} | {se} | "
                      f"{r['n']} | {share} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n" + grounding_table(results)
 
 
 def bar_chart(results: Mapping[str, Any]) -> bytes:
