@@ -10,9 +10,8 @@ Every step is an ordinary ``groundsym`` command, printed before it runs. The gra
 ``OUT/grounding.json`` and printed as a table; the paper's claim to check is that the unary symbol
 means "upright" (our target: F1 >= 0.9).
 
-``--transition-weight W`` learns with the loss's prediction term weighted by W instead of 1 (the
-``learn`` command has no option for it, so this step then calls the library's annealer directly and
-writes the same ``symbols.json``). docs/bowling.md explains why bowling needs it: a throw knocks
+``--transition-weight W`` learns with the loss's prediction term weighted by W instead of 1
+(``groundsym learn --loss transition_weight=W``). docs/bowling.md explains why bowling needs it: a throw knocks
 down pins the symbolic state cannot tell apart, so the nearest-neighbour prediction of which pins
 fall is wrong about as often as not, and at weight 1 that cost outweighs what ``upright`` gains in
 the reward and effect terms.
@@ -28,7 +27,6 @@ import contextlib
 import io
 import json
 import shlex
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -36,7 +34,6 @@ from pathlib import Path
 from groundsym.cli import main as groundsym
 from groundsym.fileio import atomic_write_json
 from groundsym.progress import Progress
-from groundsym.traces import read_traces
 
 
 def run(argv: list[str], capture: bool = False) -> str:
@@ -71,26 +68,6 @@ def anneal_symbols(ds, *, unary: int, binary: int, evals: int, restarts: int, se
     return SymbolSet(tuple(result.symbols), ds.feature_names), result
 
 
-def learn_weighted(train: Path, model: Path, args: argparse.Namespace) -> None:
-    """``groundsym learn`` for the symbols only, at ``--transition-weight``; writes model/symbols.json."""
-    from groundsym.symbols import dataset_arrays, save_symbols, share_true
-
-    print(f"\n# learning 1 unary + 3 binary symbols in-process, prediction term weight {args.transition_weight}")
-    t0 = time.monotonic()
-    ds = read_traces(train)
-    symbols, result = anneal_symbols(ds, unary=1, binary=3, evals=args.evals, restarts=args.restarts,
-                                     seed=args.seed, transition_weight=args.transition_weight, workers=args.workers)
-    feats, pairs = dataset_arrays(ds)
-    model.mkdir(parents=True, exist_ok=True)
-    extra = {"loss": result.terms.to_doc(), "pruned": [s.to_doc() for s in result.pruned],
-             "config": {"transition_weight": args.transition_weight, "evals": args.evals, "restarts": args.restarts,
-                        "seed": args.seed}}
-    save_symbols(model / "symbols.json", symbols, shares=share_true(symbols, feats, pairs), extra=extra)
-    shutil.copyfile(train, model / "traces.json")
-    print(f"  {len(result.symbols)} symbols ({len(result.pruned)} pruned), {result.terms} "
-          f"({time.monotonic() - t0:.1f} s)", flush=True)
-
-
 def grade_table(doc: dict) -> str:
     rows = ["| symbol | arity | best match | argument order | precision | recall | F1 |", "|---|---|---|---|---|---|---|"]
     for s in doc["symbols"]:
@@ -122,11 +99,9 @@ def main() -> int:
     run(["collect", *world, "--traces", str(args.games), "--length", "2", "--seed", s, "-o", str(train)])
     run(["collect", *world, "--traces", str(args.test_games), "--length", "2", "--seed", str(args.seed + 1000),
          "-o", str(test)])
-    if args.transition_weight == 1.0:
-        run(["learn", str(train), "-o", str(model), "--unary", "1", "--binary", "3", "--evals", str(args.evals),
-             "--restarts", str(args.restarts), "--workers", str(args.workers), "--seed", s])
-    else:
-        learn_weighted(train, model, args)
+    run(["learn", str(train), "-o", str(model), "--unary", "1", "--binary", "3", "--evals", str(args.evals),
+         "--restarts", str(args.restarts), "--workers", str(args.workers), "--seed", s,
+         "--loss", f"transition_weight={args.transition_weight}"])
     shown = str(model)
     print(run(["show", shown], capture=True))
     run(["show", shown, "--plot", str(out / "symbols.png")])
