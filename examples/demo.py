@@ -36,8 +36,8 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--traces", type=int, default=16, help="random traces of 10 primitives for learning")
     ap.add_argument("--evals", type=int, default=100_000,
-                    help="symbol-learning budget in loss evaluations (default 1e5, the paper's and learn's; at 20000
-                         the default seed learned only a half-useful unary symbol and PRADA earned nothing)")
+                    help="symbol-learning budget in loss evaluations (default 1e5, the paper's and learn's; "
+                         "at 20000 the default seed stopped short of inhand and on, and PRADA earned nothing)")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
