@@ -44,7 +44,7 @@ class AnnealConfig:
     population: int = 4
     t_start: float = 0.05        # initial temperature, nats per transition
     t_end: float = 0.0005        # final temperature, nats per transition
-    p_reseed: float = 0.1
+    p_reseed: float = 0.3        # 0.1 found inhand+on in 2 of 5 grounding seeds at 2e4 evals, 0.3 in 5
     p_swap: float = 0.1
     step: float = 0.3            # perturbation: centre moves ~ step x width, log-widths ~ step
     width_range: tuple[float, float] = (0.05, 2.0)  # shape of new widths, x the data's spread
