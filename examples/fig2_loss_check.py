@@ -17,6 +17,7 @@ symbol at all. Two questions per unit:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import json
 import math
@@ -62,8 +63,9 @@ def main() -> int:
     ap.add_argument("--binary", default="on,above", help="candidate binary relations (default on,above)")
     args = ap.parse_args()
     cfg_doc = read_json(args.folder / "config.json")["config"]
-    cfg = EvalConfig(**{**cfg_doc, **{k: tuple(cfg_doc[k]) for k in ("methods", "symbol_data", "model_traces",
-                                                                     "truth_symbols")}})
+    names = {f.name for f in dataclasses.fields(EvalConfig)}
+    cfg = EvalConfig(**{k: tuple(v) if k in ("methods", "symbol_data", "model_traces", "truth_symbols") else v
+                        for k, v in cfg_doc.items() if k in names})
     sim = make_sim(cfg.sim, dict(cfg.sim_options))
     rows = []
     for path in sorted((args.folder / "runs").glob("N*-run*.json")):

@@ -59,10 +59,26 @@ class EvalConfig:
     truth_symbols: tuple[str, ...] = ()
 
     def key(self) -> dict[str, Any]:
+        """The options, plus the annealer's and the loss's settings that they imply (so results from
+        code with other search or loss defaults are never mixed into one evaluation)."""
+        from .loss import LossConfig
+
         d = asdict(self)
         d["sim_options"] = dict(sorted(self.sim_options.items()))
         d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
+        learned = not self.truth_symbols
+        d["anneal"] = self.anneal_config().to_doc() if learned else None
+        d["loss"] = LossConfig().to_doc() if learned else None
         return d
+
+    def anneal_config(self):
+        """The symbol search of every unit; settings it cannot take are a user error."""
+        from .anneal import AnnealConfig
+
+        try:
+            return AnnealConfig(n_unary=self.unary, n_binary=self.binary, evals=self.evals, restarts=self.restarts)
+        except ValueError as exc:
+            raise UserError(f"--unary/--binary/--evals/--restarts: {exc}") from None
 
     def fingerprint(self) -> str:
         return hashlib.sha256(json.dumps(self.key(), sort_keys=True).encode()).hexdigest()[:16]
@@ -104,14 +120,13 @@ def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, d
             raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
                             f"({', '.join(sorted(sim.truth_predicates))})")
         return TruthSymbols(tuple(cfg.truth_symbols), dict(sim.truth_predicates)), {"symbols": "truth"}
-    from .anneal import AnnealConfig, anneal
+    from .anneal import anneal
     from .loss import LossConfig, prepare
     from .symbols import SymbolSet
 
     loss_cfg = LossConfig()
     data = prepare(ds, loss_cfg, "symbol data")
-    acfg = AnnealConfig(n_unary=cfg.unary, n_binary=cfg.binary, evals=cfg.evals, restarts=cfg.restarts)
-    result = anneal(data, loss_cfg, acfg, seed, workers=1)
+    result = anneal(data, loss_cfg, cfg.anneal_config(), seed, workers=1)
     symbols = SymbolSet(tuple(result.symbols), tuple(ds.feature_names))
     return symbols, {"symbols": "learned", "loss": result.terms.to_doc(), "evaluations": result.evaluations,
                      "pruned": len(result.pruned)}

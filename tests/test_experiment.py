@@ -76,3 +76,22 @@ def test_grounding_summary_counts_runs_that_found_each_relation(tmp_path):
     assert g["runs"] == 2 and g["found"] == {"above": 1, "inhand": 1, "on": 1}
     assert g["matches"]["u1~inhand"] == {"runs": 2, "mean_f1": pytest.approx(0.825)}
     assert "| 40 | 2 | 1 | 1 | 1 |" in markdown_table(res)
+
+
+def test_fingerprint_covers_the_search_and_loss_settings(tmp_path, capsys):
+    """Results from code with other annealing or loss defaults must not be mixed into one
+    evaluation: the stored config carries both; impossible search settings are one line."""
+    from groundsym.anneal import AnnealConfig
+    from groundsym.cli import main
+
+    learned = EvalConfig(sim="tower", methods=("random",), symbol_data=(40,), model_traces=(3,), evals=800)
+    key = learned.key()
+    assert key["anneal"] == AnnealConfig(n_unary=1, n_binary=1, evals=800, restarts=4).to_doc()
+    assert key["loss"]["noise"] == 0.05
+    truth = EvalConfig(**{**learned.__dict__, "truth_symbols": ("inhand", "on")})
+    assert truth.key()["anneal"] is None and truth.fingerprint() != learned.fingerprint()
+    capsys.readouterr()
+    assert main(["evaluate", "--sim", "tower", "--evals", "2", "--restarts", "4", "--runs", "1",
+                 "-o", str(tmp_path / "e"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--evals" in err and "Traceback" not in err
