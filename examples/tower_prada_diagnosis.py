@@ -31,6 +31,7 @@ from groundsym.logic import parse_atom  # noqa: E402
 from groundsym.modeldir import learn_symbolic_model, load_model  # noqa: E402
 from groundsym.planner import PlanningModel, make_planner  # noqa: E402
 from groundsym.registry import make_sim  # noqa: E402
+from groundsym.sim import split_key_values  # noqa: E402
 from sims.tower import optimal_episode_value  # noqa: E402
 
 
@@ -57,21 +58,8 @@ def stacked_grasps(sds) -> int:
     return n
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--traces", type=int, default=9)
-    ap.add_argument("--episodes", type=int, default=12)
-    ap.add_argument("--shared", action="store_true")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE")
-    ap.add_argument("--out", type=Path, default=None)
-    args = ap.parse_args()
-    from groundsym.sim import split_key_values
-    opts = split_key_values(args.sim_opt, "--sim-opt")
-    sim = make_sim("tower", opts)
-    best = optimal_episode_value({k: v for k, v in opts.items() if k != "noise"})
-    sym = TruthSymbols(("inhand", "on"), dict(sim.truth_predicates))
-    work = Path(tempfile.mkdtemp(prefix="prada-diag-"))
+def run_episodes(sim, sym: TruthSymbols, best: float, args: argparse.Namespace, work: Path) -> list[dict]:
+    """One PRADA episode per start state; a fresh model per episode unless ``--shared``."""
     rows, model = [], None
     for k in range(args.episodes):
         if model is None or not args.shared:
@@ -88,8 +76,26 @@ def main() -> int:
                      "stacked_grasps_in_data": taught, "rules": len(model.rules.rules)})
         print(f"episode {k + 1}: {ep.value / best:.1%} of V*, undo grasps {rows[-1]['undo_grasps']}, "
               f"stacked grasps in the model data {taught}", file=sys.stderr, flush=True)
+    return rows
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--traces", type=int, default=9)
+    ap.add_argument("--episodes", type=int, default=12)
+    ap.add_argument("--shared", action="store_true")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args()
+    opts = split_key_values(args.sim_opt, "--sim-opt")
+    sim = make_sim("tower", opts)
+    best = optimal_episode_value({k: v for k, v in opts.items() if k != "noise"})
+    sym = TruthSymbols(("inhand", "on"), dict(sim.truth_predicates))
+    with tempfile.TemporaryDirectory(prefix="prada-diag-") as tmp:
+        rows = run_episodes(sim, sym, best, args, Path(tmp))
     share = np.array([r["share"] for r in rows])
-    se = share.std(ddof=1) / np.sqrt(len(share))
+    se = share.std(ddof=1) / np.sqrt(len(share)) if len(share) > 1 else float("nan")
     undo = np.mean([r["undo_grasps"] for r in rows])
     print(f"PRADA, true inhand/on, rules from {args.traces} traces{' (one model)' if args.shared else ''}: "
           f"{share.mean():.1%} +- {se:.1%} of V*; {undo:.2f} undo grasps per episode")

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UserError
-from .symbols import Symbol, SymbolSet
+from .symbols import Symbol, SymbolSet, dataset_arrays
 from .traces import Dataset
 
 
@@ -79,12 +79,10 @@ def match_symbols(symbols: SymbolSet, ds: Dataset) -> list[Match]:
         raise UserError("grounding: traces with different numbers of objects are not supported")
     if not any(s.truth for t in ds.traces for s in t.scenes):
         raise UserError("grounding: the traces carry no ground-truth atoms (steps[].truth)")
-    feats = np.stack([np.asarray(s.features, float) for t in ds.traces for s in t.scenes])
-    pairs = np.stack([s.pairs() for t in ds.traces for s in t.scenes])
+    feats, pairs = dataset_arrays(ds)
     u, b = symbols.truth_arrays(feats, pairs)
     true_u, true_b = truth_arrays(ds)
-    m = feats.shape[1]
-    off = ~np.eye(m, dtype=bool)[None]
+    off = _off_diagonal(feats.shape[1])
     out = []
     for k, s in enumerate(symbols.unary):
         cands = [(scores(u[..., k], t), name, "same") for name, t in sorted(true_u.items())]
@@ -97,6 +95,11 @@ def match_symbols(symbols: SymbolSet, ds: Dataset) -> list[Match]:
             cands.append((scores(pred, t.transpose(0, 2, 1) & off), name, "swapped"))
         out.append(_best(s.name, 2, cands))
     return out
+
+
+def _off_diagonal(m: int) -> np.ndarray:
+    """(1, M, M) mask of ordered pairs of distinct objects (binary symbols never hold for X, X)."""
+    return ~np.eye(m, dtype=bool)[None]
 
 
 def _best(symbol: str, arity: int, cands: list) -> Match:
@@ -117,14 +120,13 @@ def fit_relation_symbol(name: str, relation: str, ds: Dataset, swapped: bool = F
     exchanged ("under" for "on"). None when the relation never holds in ``ds``.
     """
     true_u, true_b = truth_arrays(ds)
-    feats = np.stack([np.asarray(s.features, float) for t in ds.traces for s in t.scenes])
+    feats, pairs = dataset_arrays(ds)
+    off = _off_diagonal(feats.shape[1])
     if relation in true_u:
         arity, truth, space = 1, true_u[relation], feats
     elif relation in true_b:
-        arity = 2
-        truth = true_b[relation].transpose(0, 2, 1) if swapped else true_b[relation]
-        space = np.stack([s.pairs() for t in ds.traces for s in t.scenes])
-        truth = truth & ~np.eye(truth.shape[1], dtype=bool)[None]
+        arity, space = 2, pairs
+        truth = (true_b[relation].transpose(0, 2, 1) if swapped else true_b[relation]) & off
     else:
         raise UserError(f"grounding: {relation}: not a ground-truth relation of the traces "
                         f"(known: {', '.join(sorted([*true_u, *true_b]))})")
@@ -138,9 +140,7 @@ def fit_relation_symbol(name: str, relation: str, ds: Dataset, swapped: bool = F
     best = None
     for k in scales:
         sym = Symbol(name, arity, centre, half * k)
-        pred = sym.holds(space)
-        if arity == 2:
-            pred = pred & ~np.eye(pred.shape[1], dtype=bool)[None]
+        pred = sym.holds(space) & off if arity == 2 else sym.holds(space)
         f1 = scores(pred, truth)[2]
         if best is None or f1 > best[0]:
             best = (f1, sym)
