@@ -10,8 +10,12 @@ symbol at all. Two questions per unit:
   what the loss asks for, and a poor grounding is the loss's choice, not the search's failure;
 * loss: do the intended symbols beat no symbol? If not, no budget would find them on that data.
 
+With ``--without REL`` a third question: do the intended symbols beat the same set without the
+unary relation ``REL`` (does the loss pay for ``ball``)? ``--loss KEY=VALUE`` evaluates under
+other loss settings than the defaults (the learned loss is then not comparable and not checked).
+
     python examples/fig2_loss_check.py results/fig2/cubes [--unary inhand] [--binary on,above]
-    python examples/fig2_loss_check.py results/fig2/balls --unary inhand,ball
+    python examples/fig2_loss_check.py results/fig2/balls --unary inhand,ball --without ball [--loss predict=successor]
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from groundsym.collect import collect_traces  # noqa: E402
+from groundsym.commands.learn import loss_config  # noqa: E402
 from groundsym.experiment import EvalConfig, unit_seeds  # noqa: E402
 from groundsym.fileio import atomic_write_json, atomic_write_text, read_json  # noqa: E402
 from groundsym.grounding import fit_relation_symbol  # noqa: E402
@@ -42,18 +47,48 @@ def never(name: str, arity: int, n_features: int) -> Symbol:
     return Symbol(name, arity, np.full(n_features, 1e3), np.full(n_features, 1e-3))
 
 
-def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int) -> dict[str, float]:
-    """Loss of the intended symbol set (best binary relation and order) and of no symbol."""
+def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int,
+                    without: str | None = None) -> dict[str, float]:
+    """Loss of the intended symbol set (best binary relation and order), of no symbol and, with
+    ``without``, of the intended set with that unary relation switched off."""
     n = len(ds.feature_names)
     us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
     empty_b = [never(f"b{i + 1}", 2, n) for i in range(n_binary)]
-    best = math.inf
-    for rel, swapped in itertools.product(binary, (False, True)):
-        b = fit_relation_symbol("b1", rel, ds, swapped=swapped)
-        if b is not None:
-            best = min(best, loss([*us, b, *empty_b[1:]]).total)
+    fewer = [never(s.name, 1, n) if r == without else s for r, s in zip(unary, us)]
+
+    def best_with(unary_symbols: list[Symbol]) -> float:
+        best = math.inf
+        for rel, swapped in itertools.product(binary, (False, True)):
+            b = fit_relation_symbol("b1", rel, ds, swapped=swapped)
+            if b is not None:
+                best = min(best, loss([*unary_symbols, b, *empty_b[1:]]).total)
+        return best
+
     nothing = loss([never(f"u{i + 1}", 1, n) for i in range(len(unary))] + empty_b).total
-    return {"intended": best, "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
+    out = {"intended": best_with(us), "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
+    if without:
+        out["without"] = best_with(fewer)
+    return out
+
+
+def table(rows: list[dict], without: str | None) -> str:
+    """One Markdown row per symbol-data size."""
+    head = "| symbol data | units | learned loss <= intended | intended < no symbol |"
+    if without:
+        head += f" intended < without {without} |"
+    head += " mean learned | mean intended | mean no symbol |"
+    lines = [head, "|" + "---:|" * (head.count("|") - 1)]
+    for N in sorted({r["N"] for r in rows}):
+        rs = [r for r in rows if r["N"] == N]
+        learned = [r["learned"] for r in rs if r["learned"] is not None]
+        search = str(sum(v <= r["intended"] + 1e-6 for v, r in zip(learned, rs))) if learned else "-"
+        cells = [str(N), str(len(rs)), search, str(sum(r["intended"] < r["nothing"] for r in rs))]
+        if without:
+            cells.append(str(sum(r["intended"] < r["without"] for r in rs)))
+        cells += [f"{np.mean(learned):.1f}" if learned else "-", f"{np.mean([r['intended'] for r in rs]):.1f}",
+                  f"{np.mean([r['nothing'] for r in rs]):.1f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def main() -> int:
@@ -61,37 +96,43 @@ def main() -> int:
     ap.add_argument("folder", type=Path, help="an evaluation folder (config.json, runs/)")
     ap.add_argument("--unary", default="inhand", help="intended unary relations (default inhand)")
     ap.add_argument("--binary", default="on,above", help="candidate binary relations (default on,above)")
+    ap.add_argument("--without", help="also the intended set without this unary relation (e.g. ball)")
+    ap.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
+                    help="loss setting (as groundsym learn --loss); the learned loss is then not compared")
+    ap.add_argument("--out", help="file name stem in FOLDER (default loss-check)", default="loss-check")
     args = ap.parse_args()
+    if args.without and args.without not in args.unary.split(","):
+        ap.error(f"--without {args.without}: not among --unary {args.unary}")
+    loss_cfg = loss_config(args.loss)
     cfg_doc = read_json(args.folder / "config.json")["config"]
     names = {f.name for f in dataclasses.fields(EvalConfig)}
     cfg = EvalConfig(**{k: tuple(v) if k in ("methods", "symbol_data", "model_traces", "truth_symbols") else v
                         for k, v in cfg_doc.items() if k in names})
     sim = make_sim(cfg.sim, dict(cfg.sim_options))
+    # folders from before the loss had a `predict` setting were learned with the successor copy
+    comparable = loss_cfg == LossConfig(**{"predict": "successor", **(cfg_doc.get("loss") or {})})
     rows = []
     for path in sorted((args.folder / "runs").glob("N*-run*.json")):
         unit = read_json(path)
         seeds = unit_seeds(cfg, unit["symbol_data"], unit["run"])
         ds = collect_traces(sim, max(1, math.ceil(unit["symbol_data"] / cfg.trace_length)), cfg.trace_length,
                             seeds["symbol_data"], progress=False)
-        loss = Loss(prepare(ds, LossConfig(), str(path)))
-        got = intended_losses(ds, loss, args.unary.split(","), args.binary.split(","), cfg.binary)
-        got.update(N=unit["symbol_data"], run=unit["run"], learned=unit["report"]["loss"]["total"])
+        loss = Loss(prepare(ds, loss_cfg, str(path)), loss_cfg)
+        got = intended_losses(ds, loss, args.unary.split(","), args.binary.split(","), cfg.binary, args.without)
+        got.update(N=unit["symbol_data"], run=unit["run"],
+                   learned=unit["report"]["loss"]["total"] if comparable else None)
         rows.append(got)
-        print(f"{path.name}: learned {got['learned']:.1f}, intended {got['intended']:.1f}, "
+        extra = f", without {args.without} {got['without']:.1f}" if args.without else ""
+        learned = f"learned {got['learned']:.1f}, " if comparable else ""
+        print(f"{path.name}: {learned}intended {got['intended']:.1f}{extra}, "
               f"{'+'.join(args.unary.split(','))} alone {got['unary_only']:.1f}, no symbol {got['nothing']:.1f}",
               file=sys.stderr, flush=True)
-    lines = ["| symbol data | units | learned loss <= intended | intended < no symbol | mean learned | "
-             "mean intended | mean no symbol |", "|---:|---:|---:|---:|---:|---:|---:|"]
-    for N in sorted({r["N"] for r in rows}):
-        rs = [r for r in rows if r["N"] == N]
-        search = sum(r["learned"] <= r["intended"] + 1e-6 for r in rs)
-        prefers = sum(r["intended"] < r["nothing"] for r in rs)
-        lines.append(f"| {N} | {len(rs)} | {search} | {prefers} | {np.mean([r['learned'] for r in rs]):.1f} | "
-                     f"{np.mean([r['intended'] for r in rs]):.1f} | {np.mean([r['nothing'] for r in rs]):.1f} |")
-    text = "\n".join(lines) + "\n"
+    text = table(rows, args.without)
     print(text)
-    atomic_write_json(args.folder / "loss-check.json", {"unary": args.unary, "binary": args.binary, "rows": rows})
-    atomic_write_text(args.folder / "loss-check.md", text)
+    doc = {"unary": args.unary, "binary": args.binary, "without": args.without,
+           "loss": loss_cfg.to_doc(), "rows": rows}
+    atomic_write_json(args.folder / f"{args.out}.json", doc)
+    atomic_write_text(args.folder / f"{args.out}.md", text)
     return 0
 
 

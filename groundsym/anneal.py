@@ -50,6 +50,7 @@ class AnnealConfig:
     width_range: tuple[float, float] = (0.05, 2.0)  # shape of new widths, x the data's spread
     share_range: tuple[float, float] = (0.005, 0.3)  # a new symbol holds for this share of the data
     p_moved: float = 0.5         # share of new centres drawn from objects/pairs a primitive moved
+    p_ignore: float = 0.25       # a new symbol ignores each feature dimension with this probability
     chunk: int = 500             # evaluations per restart between checkpoints
 
     def __post_init__(self) -> None:
@@ -57,6 +58,8 @@ class AnnealConfig:
             raise ValueError("need at least one symbol to learn")
         if self.restarts < 1 or self.population < 1 or self.evals < self.restarts:
             raise ValueError("need at least one restart, one candidate and one evaluation per restart")
+        if not 0 <= self.p_ignore < 1:
+            raise ValueError(f"p_ignore must be in [0, 1), got {self.p_ignore}")
 
     def budget(self, restart: int) -> int:
         base, extra = divmod(self.evals, self.restarts)
@@ -106,10 +109,16 @@ def _points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return hit[1], hit[2], hit[3], hit[4]
 
 
+IGNORE_WIDTH = 100.0  # an ignored dimension's width, x the data's spread (the loss caps its cost)
+
+
 def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
     """A centre drawn from the data (an object or an ordered pair of distinct objects; half of the
     time one that a primitive moved, before or after the move, since symbols should reflect what
     primitives change) and random widths, scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform).
+    Each dimension is ignored (a width far beyond the data's spread) with probability ``p_ignore``:
+    symbols such as ``ball`` (by size, at any position) or "in the same stack" (any height
+    difference) say nothing about some dimensions, and random widths almost never find that.
 
     Without the scaling most proposals are never or almost always true (random widths over several
     dimensions rarely fit the data), and a search wastes its re-seeds on them.
@@ -121,6 +130,10 @@ def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossDa
     scale = data.unary_scale if arity == 1 else data.pair_scale
     lo, hi = np.log(cfg.width_range)
     widths = scale * np.exp(rng.uniform(lo, hi, len(scale)))
+    ignore = rng.random(len(scale)) < cfg.p_ignore
+    if ignore.all():
+        ignore[int(rng.integers(len(scale)))] = False
+    widths[ignore] = IGNORE_WIDTH * scale[ignore]
     share = float(np.exp(rng.uniform(np.log(cfg.share_range[0]), np.log(cfg.share_range[1]))))
     dist = np.sqrt((((pts - centre) / widths) ** 2).sum(-1))
     radius = float(np.quantile(dist, share))

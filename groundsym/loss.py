@@ -9,9 +9,14 @@
   more than ``change_tol`` of its spread, so physics jitter does not count) while its abstract
   state did not costs 1. (Rewarding raw Hamming flips instead gives dense, flickering symbols.)
 * **Prediction.** ``-sum_t log P(s_t+1 | s_t, a_t)``: the nearest neighbour of ``(s_t, a_t)`` among
-  the *other* transitions (same primitive, arguments mapped onto each other) predicts its
+  the *other* transitions (same primitive, arguments mapped onto each other) predicts the
   successor, mapped through the best permutation; each literal is wrong with probability
-  ``noise``. Literals are counted over all candidate symbols (``K M + L M (M-1)``), so a
+  ``noise``. A neighbour at distance > 0 predicts its *changes* (``predict="changes"``, the
+  default): the literals its primitive changed take the neighbour's new values, the others keep
+  ``s_t``'s. Copying its whole successor (``predict="successor"``, the paper's words read
+  literally) charges every literal in which the two states differ as a misprediction, so any
+  symbol that splits the data (a static ``ball``) costs prediction accuracy even where it
+  predicts nothing wrong: with it, the intended ``inhand``+``ball``+``on`` never beat ``inhand``+``on``. Literals are counted over all candidate symbols (``K M + L M (M-1)``), so a
   symbol pays for its mispredictions, not for existing. Ties at the minimal distance form an equal mixture. A transition with no comparable
   neighbour is predicted to change nothing.
 * **Reward.** ``-sum_t log P(r_t | s_t)``: a Gaussian around the leave-one-out nearest neighbour's
@@ -19,7 +24,8 @@
   size of the reward changes between consecutive scenes (about one stacked cube in the tower), so
   that one more stacked cube is worth several sigma; a 3x wider sigma lost the binary symbol.
 * **Regulariser.** For every symbol that is neither never nor always true on the data, the squared
-  log of its widths relative to the data's spread per feature dimension. Symbols never or always
+  log of its widths relative to the data's spread per feature dimension, the ratio capped at
+  ``width_cap`` (a dimension the symbol ignores costs ``ln(width_cap)^2``, not more the wider it is). Symbols never or always
   true carry no information; they are left out of every term (pruned), so an unneeded symbol is
   cheapest switched off.
 
@@ -45,6 +51,9 @@ from .symbols import Symbol, binary_truth, dataset_arrays, unary_truth
 from .traces import Dataset
 
 
+PREDICT_MODES = ("changes", "successor")
+
+
 @dataclass(frozen=True)
 class LossConfig:
     """Weights and model parameters of the loss (defaults: DESIGN.md section 4, docs/symbols.md)."""
@@ -57,13 +66,17 @@ class LossConfig:
     sigma_factor: float = 0.5      # reward sigma = this x the median reward step in the data
     change_tol: float = 0.05       # geometry changed: some feature moved > this x its spread
     reward_sigma: float | None = None  # fixed sigma instead (None: from the data)
+    predict: str = "changes"       # what a neighbour at distance > 0 predicts: its "changes" or its "successor"
+    width_cap: float = 3.0         # widths beyond this x the spread cost as at it (0: no cap)
 
     def __post_init__(self) -> None:
+        if self.predict not in PREDICT_MODES:
+            raise ValueError(f"predict must be one of {', '.join(PREDICT_MODES)}, got {self.predict!r}")
         if not 0 < self.noise < 0.5:
             raise ValueError(f"noise must be in (0, 0.5), got {self.noise}")
         for f in fields(self):
             v = getattr(self, f.name)
-            if v is not None and v < 0:
+            if isinstance(v, (int, float)) and v < 0:
                 raise ValueError(f"{f.name} must be non-negative, got {v}")
 
     def to_doc(self) -> dict[str, Any]:
@@ -186,8 +199,9 @@ class Loss:
         b = self._truth(binary, d.pairs, binary_truth)
         ku, kb = active_columns(u, b)
         u, b = u[..., ku].astype(np.uint8), b[..., kb].astype(np.uint8)
-        reg = sum(_width_penalty(s.widths, d.unary_scale) for s, keep in zip(unary, ku) if keep)
-        reg += sum(_width_penalty(s.widths, d.pair_scale) for s, keep in zip(binary, kb) if keep)
+        cap = c.width_cap
+        reg = sum(width_penalty(s.widths, d.unary_scale, cap) for s, keep in zip(unary, ku) if keep)
+        reg += sum(width_penalty(s.widths, d.pair_scale, cap) for s, keep in zip(binary, kb) if keep)
         # the other terms depend on the abstraction only: annealing moves often leave it unchanged
         key = (len(unary), len(binary), u.shape, b.shape, np.packbits(u).tobytes(), np.packbits(b).tobytes())
         terms = self._abstraction_cache.get(key)
@@ -352,6 +366,9 @@ class Loss:
         perms = nb.perms
         succ_u = u[d.post][idx, perms]                                   # successors, canonical order
         succ_b = b[d.post][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
+        pre_u = u[d.pre][idx, perms]                                     # predecessors, canonical order
+        pre_b = b[d.pre][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
+        changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         flat = np.concatenate([succ_u.reshape(len(idx), -1), succ_b.reshape(len(idx), -1)], axis=1)
         ll = np.zeros(len(d.pre))
@@ -384,6 +401,11 @@ class Loss:
             sig = np.concatenate([np.repeat(s[None], len(nb.members[c]), 0) for c, s in hits])
             pred_u = succ_u[js[:, None], sig]
             pred_b = succ_b[js[:, None, None], sig[:, :, None], sig[:, None, :]]
+            if changes:  # the literals the neighbour's primitive changed take its values; the rest stay
+                was_u = pre_u[js[:, None], sig]
+                was_b = pre_b[js[:, None, None], sig[:, :, None], sig[:, None, :]]
+                pred_u = np.where(was_u != pred_u, pred_u, pre_u[i])
+                pred_b = np.where(was_b != pred_b, pred_b, pre_b[i])
             mis = (pred_u != succ_u[i]).sum((1, 2)) + (pred_b != succ_b[i]).sum((1, 2, 3))
             lp = mis * log_eps + (n_lit - mis) * log_ok
             ll[i] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
@@ -499,8 +521,18 @@ def profile_bound(profile: np.ndarray, k: int, n_unary: int) -> np.ndarray:
     return diff[:, :n_unary].sum(1) + 0.5 * diff[:, n_unary:].sum(1)
 
 
-def _width_penalty(widths: np.ndarray, scale: np.ndarray) -> float:
-    return float(np.sum(np.log(widths / scale) ** 2))
+def width_penalty(widths: np.ndarray, scale: np.ndarray, cap: float = 0.0) -> float:
+    """``sum ln(w / spread)^2`` over the dimensions, with ``w / spread`` capped at ``cap`` (when > 0).
+
+    A width several times the data's spread no longer shapes the symbol's region on the data: the
+    symbol ignores that dimension. Without the cap, ignoring costs more the wider the width, so a
+    symbol that holds by size alone (``ball``, at every position) pays ~6 nats per ignored dimension
+    and loses to symbols that say less; with it, ignoring costs ``ln(cap)^2`` (1.2 nats at 3).
+    """
+    ratio = widths / scale
+    if cap > 0:
+        ratio = np.minimum(ratio, cap)
+    return float(np.sum(np.log(ratio) ** 2))
 
 
 def active_columns(u: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -4,7 +4,7 @@ it finds the intended symbols of the kinematic fixture world."""
 import numpy as np
 import pytest
 
-from groundsym.anneal import AnnealConfig, anneal, prune, temperature
+from groundsym.anneal import IGNORE_WIDTH, AnnealConfig, _random_symbol, anneal, prune, temperature
 from groundsym.grounding import match_symbols
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.symbols import Symbol, SymbolSet
@@ -106,3 +106,16 @@ def test_finds_inhand_and_on_in_the_fixture_world():
                                                  kinematic_tower(20, seed=99))}
     assert matches[1].best_match == "inhand" and matches[1].f1 >= 0.9
     assert matches[2].best_match == "on" and matches[2].f1 >= 0.8
+
+
+def test_new_symbols_ignore_dimensions_at_the_configured_rate():
+    d = prepare(kinematic_tower(4, seed=2))
+    rng = np.random.default_rng(0)
+    for p, lo, hi in ((0.0, 0.0, 0.0), (0.25, 0.18, 0.32)):
+        cfg = AnnealConfig(p_ignore=p)
+        ratios = np.stack([_random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale for _ in range(400)])
+        # the share scaling shrinks or stretches all widths alike: an ignored dimension stays far
+        # wider than the others of its symbol, and never all of them are ignored
+        ignored = ratios >= ratios.min(axis=1, keepdims=True) * IGNORE_WIDTH / AnnealConfig().width_range[1] * 0.999
+        assert lo <= ignored.mean() <= hi
+        assert not ignored.all(axis=1).any()

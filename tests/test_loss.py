@@ -15,7 +15,7 @@ import pytest
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.loss import Loss, LossConfig, LossTerms, _group_logmeanexp, active_columns, prepare
+from groundsym.loss import Loss, LossConfig, LossTerms, _group_logmeanexp, active_columns, prepare, width_penalty
 from groundsym.relational import Encoded, naive_state_distance
 from groundsym.symbols import Symbol
 from groundsym.traces import Dataset, Trace
@@ -134,11 +134,12 @@ def test_never_true_symbols_are_pruned_from_every_term(data):
     assert not ku[0] and not kb[0]
 
 
-def test_transition_term_matches_a_brute_force_predictor():
+@pytest.mark.parametrize("predict", ["changes", "successor"])
+def test_transition_term_matches_a_brute_force_predictor(predict):
     """Recompute the prediction term with the naive permutation enumeration and atom sets."""
     small = prepare(kinematic_tower(3, seed=4, n_cubes=5))
     syms = intended_symbols()
-    cfg = LossConfig()
+    cfg = LossConfig(predict=predict)
     got = Loss(small, cfg)(syms)
     from groundsym.symbols import binary_truth, unary_truth
     u = unary_truth(syms[:1], small.features).astype(np.uint8)
@@ -160,6 +161,10 @@ def test_transition_term_matches_a_brute_force_predictor():
             # all best permutations give the same prediction here unless automorphisms differ
             pu = u[small.post[k]][perm]
             pb = b[small.post[k]][perm][:, perm]
+            if predict == "changes":  # only what the neighbour's primitive changed; the rest as in t
+                was_u, was_b = u[small.pre[k]][perm], b[small.pre[k]][perm][:, perm]
+                pu = np.where(was_u != pu, pu, u[small.pre[t]])
+                pb = np.where(was_b != pb, pb, b[small.pre[t]])
             mis = int((pu != u[small.post[t]]).sum() + (pb != b[small.post[t]]).sum())
             lps.append(mis * math.log(cfg.noise) + (n_lit - mis) * math.log1p(-cfg.noise))
         total_t -= float(np.log(np.mean(np.exp(lps))))
@@ -194,3 +199,32 @@ def test_bad_data_is_a_user_error():
 def test_terms_print_and_sum():
     t = LossTerms(1.0, 2.0, 3.0, 0.5)
     assert t.total == 6.5 and "loss 6.50" in str(t)
+
+
+def test_width_penalty_caps_ignored_dimensions():
+    scale = np.array([0.1, 0.1, 0.1, 0.004])
+    ball = np.array([5.0, 50.0, 500.0, 0.004])         # by size alone: every position allowed
+    # hand-computed: three dimensions at the cap (ln 3)^2 each, the size at its spread (0)
+    assert width_penalty(ball, scale, cap=3.0) == pytest.approx(3 * math.log(3.0) ** 2)
+    assert width_penalty(ball, scale, cap=0.0) == pytest.approx(sum(math.log(r) ** 2 for r in (50, 500, 5000)))
+    narrow = np.array([0.01, 0.02, 0.1, 0.001])        # below the cap nothing changes
+    assert width_penalty(narrow, scale, cap=3.0) == pytest.approx(width_penalty(narrow, scale, cap=0.0))
+
+
+def test_the_regulariser_uses_the_configured_cap(data):
+    _, d = data
+    wide = Symbol("u1", 1, intended_symbols()[0].centre, d.unary_scale * np.array([0.5, 0.5, 0.5, 40.0]))
+    syms = [wide, intended_symbols()[1]]
+    capped, uncapped = Loss(d, LossConfig(width_cap=3.0))(syms), Loss(d, LossConfig(width_cap=0.0))(syms)
+    # the unary symbol's size width is 40 spreads: charged (ln 3)^2 instead of (ln 40)^2; the binary
+    # one ignores the size difference too and gets the same relief
+    r = syms[1].widths / d.pair_scale
+    binary_relief = float(np.sum(np.log(r) ** 2 - np.log(np.minimum(r, 3.0)) ** 2))
+    assert uncapped.regulariser - capped.regulariser == pytest.approx(
+        math.log(40.0) ** 2 - math.log(3.0) ** 2 + binary_relief)
+    assert (capped.transition, capped.reward) == (uncapped.transition, uncapped.reward)
+
+
+def test_predict_mode_is_checked():
+    with pytest.raises(ValueError, match="predict must be one of"):
+        LossConfig(predict="copy")

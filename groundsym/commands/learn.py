@@ -60,10 +60,13 @@ LOSS_KEYS = tuple(f.name for f in fields(LossConfig))
 def loss_config(items: list[str]) -> LossConfig:
     """``--loss key=value`` settings over the defaults; a bad key or value is one line (exit 2)."""
     given = split_key_values(items, "--loss")
-    values: dict[str, float | None] = {}
+    values: dict[str, float | str | None] = {}
     for key, text in given.items():
         if key not in LOSS_KEYS:
             raise UserError(f"--loss {key}: unknown setting (known: {', '.join(LOSS_KEYS)})")
+        if key == "predict":
+            values[key] = text
+            continue
         try:
             v = None if text.lower() == "none" and key == "reward_sigma" else float(text)
         except ValueError:
