@@ -4,7 +4,8 @@ For each seed: record random training traces in the tower cell (16 traces x 10 p
 transitions; `groundsym collect`), learn symbols (`groundsym learn`), and match each symbol against
 the simulator's ground truth on held-out scenes (`groundsym show --against --json`). Prints a table
 and writes `report.json` and `report.md` into the output directory. Existing trace files in the
-data directory are reused, so a second run only learns.
+data directory are reused, and so is a model learned with the same seed, data and settings (by the
+current code's defaults), so an interrupted report resumes where it stopped.
 
     .venv/bin/python examples/grounding_report.py --out results/grounding --seeds 1 2 3 4 5 --evals 20000
     # cubes and balls (the paper's second experiment): 2 unary + 1 binary symbols
@@ -30,6 +31,23 @@ def sh(args: list[str], quiet: bool = False) -> str:
     if not quiet and res.stderr.strip():
         print(res.stderr.strip().splitlines()[-1], file=sys.stderr)
     return res.stdout
+
+
+def learned_already(model: Path, train: Path, seed: int, args: argparse.Namespace) -> bool:
+    """Does ``model`` hold symbols learned from ``train`` with this seed and the current settings?"""
+    sys.path.insert(0, str(ROOT))
+    from groundsym.anneal import AnnealConfig
+    from groundsym.fileio import file_sha256
+    from groundsym.loss import LossConfig
+
+    try:
+        doc = json.loads((model / "symbols.json").read_text())
+    except (OSError, ValueError):
+        return False
+    want = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
+    prov, cfg = doc.get("provenance", {}), doc.get("config", {})
+    return (prov.get("seed") == seed and prov.get("data_sha256") == file_sha256(train)
+            and cfg.get("anneal") == want.to_doc() and cfg.get("loss") == LossConfig().to_doc())
 
 
 def collect(path: Path, traces: int, seed: int, sim_opt: list[str]) -> None:
@@ -67,7 +85,8 @@ def main() -> int:
                "--evals", str(args.evals), "--restarts", str(args.restarts), "--seed", str(seed), "--quiet"]
         if args.workers:
             cmd += ["--workers", str(args.workers)]
-        sh(cmd)
+        if not learned_already(model, train, seed, args):
+            sh(cmd)
         doc = json.loads(sh(["show", str(model), "--against", str(test), "--json"], quiet=True))
         loss = json.loads((model / "symbols.json").read_text())["loss"]["total"]
         words = sh(["show", str(model)], quiet=True).strip().splitlines()
