@@ -366,8 +366,6 @@ class Loss:
         perms = nb.perms
         succ_u = u[d.post][idx, perms]                                   # successors, canonical order
         succ_b = b[d.post][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
-        pre_u = u[d.pre][idx, perms]                                     # predecessors, canonical order
-        pre_b = b[d.pre][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         flat = np.concatenate([succ_u.reshape(len(idx), -1), succ_b.reshape(len(idx), -1)], axis=1)
@@ -402,10 +400,13 @@ class Loss:
             pred_u = succ_u[js[:, None], sig]
             pred_b = succ_b[js[:, None, None], sig[:, :, None], sig[:, None, :]]
             if changes:  # the literals the neighbour's primitive changed take its values; the rest stay
-                was_u = pre_u[js[:, None], sig]
-                was_b = pre_b[js[:, None, None], sig[:, :, None], sig[:, None, :]]
-                pred_u = np.where(was_u != pred_u, pred_u, pre_u[i])
-                pred_b = np.where(was_b != pred_b, pred_b, pre_b[i])
+                obj = perms[js[:, None], sig]           # neighbour objects in i's canonical order
+                rows = d.pre[js]
+                was_u = u[rows[:, None], obj]
+                was_b = b[rows[:, None, None], obj[:, :, None], obj[:, None, :]]
+                own = perms[i]
+                pred_u = np.where(was_u != pred_u, pred_u, u[d.pre[i]][own])
+                pred_b = np.where(was_b != pred_b, pred_b, b[d.pre[i]][own[:, None], own[None, :]])
             mis = (pred_u != succ_u[i]).sum((1, 2)) + (pred_b != succ_b[i]).sum((1, 2, 3))
             lp = mis * log_eps + (n_lit - mis) * log_ok
             ll[i] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
