@@ -100,6 +100,7 @@ def main() -> int:
     ap.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
                     help="loss setting (as groundsym learn --loss); the learned loss is then not compared")
     ap.add_argument("--out", help="file name stem in FOLDER (default loss-check)", default="loss-check")
+    ap.add_argument("--symbol-data", type=int, action="append", help="only the units of this symbol-data size (repeatable)")
     args = ap.parse_args()
     if args.without and args.without not in args.unary.split(","):
         ap.error(f"--without {args.without}: not among --unary {args.unary}")
@@ -114,6 +115,8 @@ def main() -> int:
     rows = []
     for path in sorted((args.folder / "runs").glob("N*-run*.json")):
         unit = read_json(path)
+        if args.symbol_data and unit["symbol_data"] not in args.symbol_data:
+            continue
         seeds = unit_seeds(cfg, unit["symbol_data"], unit["run"])
         ds = collect_traces(sim, max(1, math.ceil(unit["symbol_data"] / cfg.trace_length)), cfg.trace_length,
                             seeds["symbol_data"], progress=False)
