@@ -16,8 +16,9 @@
   ``s_t``'s. Copying its whole successor (``predict="successor"``, the paper's words read
   literally) charges every literal in which the two states differ as a misprediction, so any
   symbol that splits the data (a static ``ball``) costs prediction accuracy even where it
-  predicts nothing wrong: with it, the intended ``inhand``+``ball``+``on`` never beat ``inhand``+``on``. Literals are counted over all candidate symbols (``K M + L M (M-1)``), so a
-  symbol pays for its mispredictions, not for existing. Ties at the minimal distance form an equal mixture. A transition with no comparable
+  predicts nothing wrong (docs/symbols.md has the figures). Literals are counted over all
+  candidate symbols (``K M + L M (M-1)``), so a symbol pays for its mispredictions, not for
+  existing. Ties at the minimal distance form an equal mixture. A transition with no comparable
   neighbour is predicted to change nothing.
 * **Reward.** ``-sum_t log P(r_t | s_t)``: a Gaussian around the leave-one-out nearest neighbour's
   reward (a mixture over ties). Its ``sigma`` is set from the data: ``sigma_factor`` times the median
@@ -25,9 +26,9 @@
   that one more stacked cube is worth several sigma; a 3x wider sigma lost the binary symbol.
 * **Regulariser.** For every symbol that is neither never nor always true on the data, the squared
   log of its widths relative to the data's spread per feature dimension, the ratio capped at
-  ``width_cap`` (a dimension the symbol ignores costs ``ln(width_cap)^2``, not more the wider it is). Symbols never or always
-  true carry no information; they are left out of every term (pruned), so an unneeded symbol is
-  cheapest switched off.
+  ``width_cap`` (a dimension the symbol ignores costs ``ln(width_cap)^2``, not more the wider it
+  is). Symbols never or always true carry no information; they are left out of every term
+  (pruned), so an unneeded symbol is cheapest switched off.
 
 Distances are exact (:mod:`groundsym.relational`); the pass is fast because isomorphic state(-action)
 pairs are grouped by canonical form (a query with an isomorphic partner has distance 0 and needs no
