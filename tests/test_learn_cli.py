@@ -125,3 +125,5 @@ def test_loss_settings_reach_the_loss(traces, tmp_path, capsys):
                     "--loss", "noise must be in (0, 0.5)")
     _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--loss", "reward_weight=nan"],
                     "--loss reward_weight=nan", "finite")
+    _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--loss", "predict=copy"],
+                    "--loss", "predict must be one of changes, successor")
