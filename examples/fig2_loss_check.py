@@ -55,14 +55,12 @@ def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binar
     us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
     empty_b = [never(f"b{i + 1}", 2, n) for i in range(n_binary)]
     fewer = [never(s.name, 1, n) if r == without else s for r, s in zip(unary, us)]
+    fitted = [fit_relation_symbol("b1", rel, ds, swapped=swapped)
+              for rel, swapped in itertools.product(binary, (False, True))]
+    candidates = [b for b in fitted if b is not None]
 
     def best_with(unary_symbols: list[Symbol]) -> float:
-        best = math.inf
-        for rel, swapped in itertools.product(binary, (False, True)):
-            b = fit_relation_symbol("b1", rel, ds, swapped=swapped)
-            if b is not None:
-                best = min(best, loss([*unary_symbols, b, *empty_b[1:]]).total)
-        return best
+        return min((loss([*unary_symbols, b, *empty_b[1:]]).total for b in candidates), default=math.inf)
 
     nothing = loss([never(f"u{i + 1}", 1, n) for i in range(len(unary))] + empty_b).total
     out = {"intended": best_with(us), "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
@@ -110,8 +108,10 @@ def main() -> int:
     cfg = EvalConfig(**{k: tuple(v) if k in ("methods", "symbol_data", "model_traces", "truth_symbols") else v
                         for k, v in cfg_doc.items() if k in names})
     sim = make_sim(cfg.sim, dict(cfg.sim_options))
-    # folders from before the loss had a `predict` setting were learned with the successor copy
-    comparable = loss_cfg == LossConfig(**{"predict": "successor", **(cfg_doc.get("loss") or {})})
+    # folders from before the loss had `predict` and `width_cap` were learned with the successor
+    # copy and no cap; settings a folder does not record take those values, not today's defaults
+    recorded = {"predict": "successor", "width_cap": 0.0, **(cfg_doc.get("loss") or {})}
+    comparable = loss_cfg == LossConfig(**recorded)
     rows = []
     for path in sorted((args.folder / "runs").glob("N*-run*.json")):
         unit = read_json(path)

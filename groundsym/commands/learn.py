@@ -55,6 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 LOSS_KEYS = tuple(f.name for f in fields(LossConfig))
+TEXT_LOSS_KEYS = frozenset(f.name for f in fields(LossConfig) if f.type in (str, "str"))  # e.g. predict
 
 
 def loss_config(items: list[str]) -> LossConfig:
@@ -64,7 +65,7 @@ def loss_config(items: list[str]) -> LossConfig:
     for key, text in given.items():
         if key not in LOSS_KEYS:
             raise UserError(f"--loss {key}: unknown setting (known: {', '.join(LOSS_KEYS)})")
-        if key == "predict":
+        if key in TEXT_LOSS_KEYS:  # checked by LossConfig itself
             values[key] = text
             continue
         try:
