@@ -45,9 +45,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import UserError
-from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms, enumerate_block,
-                         exact_state_distance, lock_codes, permutation_positions, permuted_words, root_bounds,
-                         twin_groups)
+from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms,
+                         exact_state_distance, permutation_positions, permuted_words, root_bounds, twin_groups, twin_groups_of)
 from .symbols import Symbol, binary_truth, dataset_arrays, unary_truth
 from .traces import Dataset
 
@@ -188,7 +187,8 @@ class Loss:
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
         self._truth_cache: dict[tuple, np.ndarray] = {}
-        self._qwords: dict[bytes, np.ndarray] = {}
+        self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -252,52 +252,97 @@ class Loss:
         hits = {}
         lone = [k for k, group in enumerate(members) if len(group) == 1]
         if lone and u.shape[1] <= ENUMERATE_MAX:
-            table = _ClassTable(reps, rep_keys, profile, lock_sig)
-            for k in lone:
-                hits[k] = self._nearest_enumerated(k, table)
+            hits = self._nearest_enumerated(lone, _ClassTable(reps, rep_keys, profile, lock_sig))
         else:
             for k in lone:
                 hits[k] = self._nearest_class(k, reps, rep_keys, profile, lock_sig)
         return Neighbourhood(cls, perms, members, hits)
 
-    def _nearest_enumerated(self, k: int, t: "_ClassTable") -> tuple[float, list[tuple[int, np.ndarray]]]:
-        """Nearest classes of class ``k`` by bit-parallel enumeration, in chunks in bound order."""
-        q = t.reps[k]
-        bound = profile_bound(t.profile, k, q.unary.shape[1])
-        bound[~t.compatible(k)] = INF
-        bound[k] = INF
-        order = np.argsort(bound, kind="stable")
-        order = order[bound[order] < INF]
-        cached = self._qwords.get(t.keys[k])
-        if cached is None:
-            if len(self._qwords) >= 4096:
-                self._qwords.clear()
-            sig = all_permutations(q.n_objects)
-            keep = _one_order_of_twins(q)
-            # compatible candidates hold their arguments at the front (canonical order): only
-            # permutations that bring q's arguments there can match
-            front = np.sort(q.lock)[::-1]
-            keep = keep[(q.lock[sig[keep]] == front).all(1)]
-            cached = self._qwords[t.keys[k]] = (permuted_words(q, keep), lock_codes(q.lock[sig[keep]], t.base), keep)
-        qw, ql, keep = cached
-        best, found = INF, []
-        for start in range(0, len(order), 16):
-            chunk = order[start:start + 16]
-            if bound[chunk[0]] > best:
+    def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
+        """Nearest classes of every lone class by bit-parallel enumeration, all queries at once.
+
+        Each query visits its candidates in chunks of 16 in order of the profile bound and stops
+        once the next bound exceeds its best distance. A round compares every active query's
+        permutations with its own chunk in one array operation: a Python loop per query cost more
+        than the arithmetic. Compatible candidates hold the action's arguments at the same
+        canonical positions, so only the permutations that bring the query's arguments there are
+        enumerated, and one order of each group of interchangeable objects.
+        """
+        q = np.asarray(lone, dtype=np.int64)
+        n_unary = t.unary.shape[2]
+        diff = np.abs(t.profile[q][:, None, :] - t.profile[None, :, :]).astype(float)
+        bound = diff[..., :n_unary].sum(-1) + 0.5 * diff[..., n_unary:].sum(-1)
+        bound[~((t.labels[q][:, None] == t.labels[None]) & (t.lock_group[q][:, None] == t.lock_group[None]))] = INF
+        bound[np.arange(len(q)), q] = INF
+        order = np.argsort(bound, axis=1, kind="stable")
+        sbound = np.take_along_axis(bound, order, 1)
+        words, keeps = self._query_words(lone, t)
+        best = np.full(len(q), INF)
+        dist = np.full(bound.shape, INF)          # distance to each candidate, in bound order, where visited
+        active = np.flatnonzero(sbound[:, 0] < INF)
+        for start in range(0, order.shape[1], _CHUNK):
+            if not len(active):
                 break
-            # only permutations that map the action's arguments onto the candidate's (a 1/M share
-            # for one argument) are enumerated, per lock pattern in the chunk
-            for lc in np.unique(t.locks[chunk]):
-                part = chunk[t.locks[chunk] == lc]
-                sel = np.flatnonzero(ql == lc)
-                if not len(sel):
-                    continue
-                d, arg = enumerate_block(qw[sel], ql[sel], t.words[part], t.locks[part])
-                best = min(best, float(d.min()))
-                found += [(float(d[i]), int(c), int(keep[sel[arg[i]]])) for i, c in enumerate(part)]
-        sig = all_permutations(q.n_objects)
-        found.sort(key=lambda f: f[1])
-        return best, [(c, np.argsort(sig[a])) for dd, c, a in found if dd == best < INF]
+            cols = slice(start, start + _CHUNK)
+            for block in _row_blocks(active, [len(words[i]) for i in active]):
+                d = _chunk_distances([words[i] for i in block], t.words[order[block, cols]])
+                d[sbound[block, cols] >= INF] = INF
+                dist[block, cols] = d
+                best[block] = np.minimum(best[block], d.min(1))
+            nxt = start + _CHUNK
+            if nxt >= order.shape[1]:
+                break
+            active = active[(sbound[active, nxt] < INF) & (sbound[active, nxt] <= best[active])]
+        sig = all_permutations(t.unary.shape[1])
+        hits: dict[int, tuple[float, list[tuple[int, np.ndarray]]]] = {}
+        for i, k in enumerate(lone):
+            if best[i] >= INF:
+                hits[k] = (INF, [])
+                continue
+            tied = np.sort(order[i, dist[i] == best[i]])        # ties, by class index
+            first = _first_permutation(words[i], t.words[tied], best[i])
+            hits[k] = (float(best[i]), [(int(c), np.argsort(sig[keeps[i][a]])) for c, a in zip(tied, first)])
+        return hits
+
+    def _query_words(self, lone: list[int], t: "_ClassTable") -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Per lone class: its enumerated permutations packed into words, and their indices.
+
+        Memoised by class encoding (learned abstract states repeat across evaluations).
+        """
+        miss = [k for k in lone if t.keys[k] not in self._qwords]
+        if len(self._qwords) + len(miss) > 4096:
+            self._qwords.clear()
+            miss = list(lone)
+        if miss:
+            groups = twin_groups_of(t.unary[miss], t.binary[miss], t.lock[miss])
+            for k, g in zip(miss, groups):
+                keep = self._enumerated_orders(g, t.lock[k])
+                self._qwords[t.keys[k]] = (permuted_words(t.reps[k], keep), keep)
+        pairs = [self._qwords[t.keys[k]] for k in lone]
+        return [w for w, _ in pairs], [kp for _, kp in pairs]
+
+    def _enumerated_orders(self, groups: np.ndarray, lock: np.ndarray) -> np.ndarray:
+        """Indices of the permutations worth enumerating for a query (memoised by its structure).
+
+        Interchangeable objects stay in increasing order (swapping two leaves the permuted
+        encoding unchanged, so one order of each group gives the same minima; table cubes in the
+        tower mostly are), and the action's arguments go to the front, where every compatible
+        candidate holds them (canonical order).
+        """
+        key = (groups.tobytes(), lock.tobytes())
+        keep = self._orders.get(key)
+        if keep is None:
+            m = len(groups)
+            pos = permutation_positions(m)               # where each object of the query lands
+            mask = np.ones(len(pos), dtype=bool)
+            for g in np.unique(groups):
+                objs = np.flatnonzero(groups == g)
+                for a, b in zip(objs[:-1], objs[1:]):
+                    mask &= pos[:, a] < pos[:, b]
+            keep = np.flatnonzero(mask)
+            keep = keep[(lock[all_permutations(m)[keep]] == np.sort(lock)[::-1]).all(1)]
+            self._orders[key] = keep
+        return keep
 
     def _encoded(self, u, b, lock, label, perms, i) -> Encoded:
         p = perms[i]
@@ -436,35 +481,57 @@ class Loss:
         return float(-ll.sum())
 
 
-def _one_order_of_twins(q: Encoded) -> np.ndarray:
-    """Indices of the permutations that keep interchangeable objects of ``q`` in increasing order.
-
-    Swapping two interchangeable objects leaves the permuted encoding unchanged, so one order of
-    each group gives the same minima (table cubes in the tower are mostly interchangeable).
-    """
-    pos = permutation_positions(q.n_objects)         # where each object of q lands
-    groups = twin_groups(q)
-    mask = np.ones(len(pos), dtype=bool)
-    for g in np.unique(groups):
-        objs = np.flatnonzero(groups == g)
-        for a, b in zip(objs[:-1], objs[1:]):
-            mask &= pos[:, a] < pos[:, b]
-    return np.flatnonzero(mask)
-
-
 class _ClassTable:
     """The class representatives of one pass as arrays, for bit-parallel enumeration."""
 
     def __init__(self, reps: list[Encoded], keys: list[bytes], profile: np.ndarray, lock_sig: list[tuple]):
         self.reps, self.keys, self.profile = reps, keys, profile
-        self.words = _words(np.stack([np.concatenate([e.unary.ravel(), e.binary.ravel()]) for e in reps]))
-        self.base = max(int(max(e.lock.max() for e in reps)) + 1, 2)
-        self.locks = lock_codes(np.stack([e.lock for e in reps]), self.base)
+        self.unary = np.stack([e.unary for e in reps])          # (C, M, K), canonical order
+        self.binary = np.stack([e.binary for e in reps])        # (C, M, M, L)
+        self.lock = np.stack([e.lock for e in reps])            # (C, M)
+        n = len(reps)
+        self.words = _words(np.concatenate([self.unary.reshape(n, -1), self.binary.reshape(n, -1)], axis=1))
         self.labels = np.array([e.label for e in reps])
         _, self.lock_group = np.unique(np.array([str(s) for s in lock_sig]), return_inverse=True)
 
-    def compatible(self, k: int) -> np.ndarray:
-        return (self.labels == self.labels[k]) & (self.lock_group == self.lock_group[k])
+
+_CHUNK = 16          # candidates per query and round of the enumeration
+_BLOCK_ROWS = 1 << 15  # permuted query rows per array operation (bounds the memory of one round)
+
+
+def _row_blocks(queries: np.ndarray, rows: list[int]) -> list[np.ndarray]:
+    """Split ``queries`` into consecutive blocks of at most ``_BLOCK_ROWS`` rows (at least one query each)."""
+    blocks, cur, n = [], [], 0
+    for qi, r in zip(queries.tolist(), rows):
+        if cur and n + r > _BLOCK_ROWS:
+            blocks.append(np.array(cur))
+            cur, n = [], 0
+        cur.append(qi)
+        n += r
+    if cur:
+        blocks.append(np.array(cur))
+    return blocks
+
+
+def _chunk_distances(qwords: list[np.ndarray], cwords: np.ndarray) -> np.ndarray:
+    """Hamming distances of each query's permutations to its own candidates, minimised per query.
+
+    ``qwords[i]`` (P_i, W): query i's permuted words; ``cwords`` (Q, C, W): its candidates' words.
+    Returns (Q, C) the smallest distance over each query's permutations.
+    """
+    sizes = np.array([len(w) for w in qwords])
+    rows = np.concatenate(qwords)                                   # (R, W)
+    x = np.bitwise_count(rows[:, None, :] ^ cwords[np.repeat(np.arange(len(qwords)), sizes)])  # (R, C, W)
+    dist = x[..., 0] if x.shape[-1] == 1 else x[..., 0].astype(np.uint16)
+    for w in range(1, x.shape[-1]):   # (a reduction over a short last axis is slow in numpy)
+        dist += x[..., w]
+    return np.minimum.reduceat(dist, np.concatenate([[0], np.cumsum(sizes)[:-1]]), axis=0).astype(float)
+
+
+def _first_permutation(qwords: np.ndarray, cwords: np.ndarray, d: float) -> np.ndarray:
+    """Per candidate (rows of ``cwords``), the first of the query's permutations at distance ``d``."""
+    dist = np.bitwise_count(qwords[:, None, :] ^ cwords[None]).sum(-1)
+    return np.argmax(dist == d, axis=0)
 
 
 @dataclass(frozen=True, eq=False)

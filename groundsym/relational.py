@@ -133,9 +133,16 @@ def permutation_cost(a: Encoded, b: Encoded, perm: np.ndarray) -> float:
 
 def twin_groups(e: Encoded) -> np.ndarray:
     """Group id per object: objects in one group are interchangeable (swapping any two leaves e)."""
-    m = e.n_objects
-    tw = _twins((_codes(e.unary) + (e.lock << e.unary.shape[1]))[None], _codes(e.binary)[None])[0]
-    return np.argmax(tw, axis=1) if m else np.zeros(0, dtype=np.int64)  # first twin = group id
+    return twin_groups_of(e.unary[None], e.binary[None], e.lock[None])[0]
+
+
+def twin_groups_of(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.ndarray:
+    """:func:`twin_groups` of a batch: ``unary`` (N, M, K), ``binary`` (N, M, M, L), ``lock`` (N, M)."""
+    n, m = unary.shape[:2]
+    if m == 0:
+        return np.zeros((n, 0), dtype=np.int64)
+    tw = _twins(_codes(unary) + (lock.astype(np.int64) << unary.shape[2]), _codes(binary))
+    return np.argmax(tw, axis=2)  # first twin = group id
 
 
 class _Search:
@@ -219,7 +226,9 @@ class _Search:
         if self.best > lb + 1e-9:
             self.descend(0, self.const, [], np.zeros(m, dtype=bool), lb)
         if self.best >= self.threshold:
-            return self.best, None
+            # the best found is only an upper bound; the pruned part of the tree only proves that
+            # nothing there is below the threshold
+            return max(lb, self.threshold), None
         return self.best, self.best_perm
 
     def descend(self, depth: int, cost: float, assigned: list[tuple[int, int]], used: np.ndarray,
@@ -364,10 +373,44 @@ def _flat_bits(e: Encoded) -> np.ndarray:
     return np.concatenate([e.unary.ravel(), e.binary.ravel()])
 
 
+_BIT_DEST: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _bit_destinations(m: int, k: int, l: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n_bits, m!) the word, and its value as that word, at which each bit of a flat state lands
+    under each permutation (memoised); the values are those :func:`_words` packs."""
+    key = (m, k, l)
+    if key not in _BIT_DEST:
+        idx = _bit_index(m, k, l)                    # permuted position p takes source bit idx[s, p]
+        n = idx.shape[1]
+        dest = np.argsort(idx, axis=1)               # source bit j lands at dest[s, j]
+        unit = _words(np.eye(n, dtype=np.uint8))     # the packed pattern of a lone bit at each position
+        word = np.argmax(unit != 0, axis=1)
+        value = unit[np.arange(n), word]
+        _BIT_DEST[key] = (np.ascontiguousarray(word[dest].T), np.ascontiguousarray(value[dest].T))
+    return _BIT_DEST[key]
+
+
 def permuted_words(q: Encoded, which: np.ndarray | None = None) -> np.ndarray:
-    """Permutations of ``q`` (all, or the indices ``which``) packed into 64-bit words (for enumeration)."""
-    idx = _bit_index(q.n_objects, q.unary.shape[1], q.binary.shape[2])
-    return _words(_flat_bits(q)[idx if which is None else idx[which]])
+    """Permutations of ``q`` (all, or the indices ``which``) packed into 64-bit words (for enumeration).
+
+    Built from the bits that are set, each placed where the permutation sends it: states are
+    sparse, so this beats gathering every bit of every permuted state.
+    """
+    m, k, l = q.n_objects, q.unary.shape[1], q.binary.shape[2]
+    word, value = _bit_destinations(m, k, l)
+    cols = np.arange(word.shape[1]) if which is None else np.asarray(which)
+    out = np.zeros((len(cols), -(-word.shape[0] // 64)), dtype=np.uint64)
+    bits = np.flatnonzero(_flat_bits(q))
+    if len(bits):
+        v = value[bits[:, None], cols[None, :]]      # (set bits, permutations)
+        if out.shape[1] == 1:
+            out[:, 0] = np.bitwise_or.reduce(v, axis=0)
+        else:
+            w = word[bits[:, None], cols[None, :]]
+            for j in range(out.shape[1]):
+                out[:, j] = np.bitwise_or.reduce(np.where(w == j, v, np.uint64(0)), axis=0)
+    return out
 
 
 def enumerate_distances(q: Encoded, cands: Sequence[Encoded],
@@ -401,29 +444,6 @@ def enumerate_distances(q: Encoded, cands: Sequence[Encoded],
     d += np.array([float(np.sum(q.nullary != c.nullary)) for c in cands])
     d[np.array([c.label != q.label for c in cands])] = INF
     return d, np.argsort(sig[best], axis=1)
-
-
-def lock_codes(locks: np.ndarray, base: int) -> np.ndarray:
-    """One integer per row of argument locks (rows of small ints), for equality tests."""
-    return (locks.astype(np.int64) * (np.int64(base) ** np.arange(locks.shape[-1], dtype=np.int64))).sum(-1)
-
-
-def enumerate_block(qwords: np.ndarray, qlocks: np.ndarray, cwords: np.ndarray,
-                    clocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The kernel of :func:`enumerate_distances` on prepared arrays.
-
-    ``qwords`` (P, W) the query's permuted words and ``qlocks`` (P,) their lock codes;
-    ``cwords`` (C, W), ``clocks`` (C,) the candidates'. Returns the distance per candidate (inf when
-    no permutation respects the locks) and the index of the first minimising permutation.
-    """
-    dist = np.bitwise_count(qwords[:, None, :] ^ cwords[None, :, :])
-    dist = dist[..., 0].astype(np.int64) if dist.shape[-1] == 1 else dist.sum(-1, dtype=np.int64)
-    big = np.iinfo(np.int64).max
-    dist = np.where(qlocks[:, None] == clocks[None, :], dist, big)
-    best = dist.argmin(0)
-    d = dist[best, np.arange(len(clocks))].astype(float)
-    d[d >= big] = INF
-    return d, best
 
 
 def naive_state_distance(a: Encoded, b: Encoded) -> tuple[float, np.ndarray | None]:

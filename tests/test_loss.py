@@ -228,3 +228,40 @@ def test_the_regulariser_uses_the_configured_cap(data):
 def test_predict_mode_is_checked():
     with pytest.raises(ValueError, match="predict must be one of"):
         LossConfig(predict="copy")
+
+
+@pytest.mark.parametrize("n_unary,n_binary", [(1, 1), (3, 3)])
+def test_enumerated_neighbours_match_branch_and_bound(monkeypatch, n_unary, n_binary):
+    """The batched bit-parallel search finds the same nearest classes as branch and bound."""
+    import groundsym.loss as loss_mod
+    from groundsym.anneal import AnnealConfig, _random_symbol
+    from groundsym.relational import permutation_cost
+    from groundsym.symbols import binary_truth, unary_truth
+    data = prepare(kinematic_tower(6, seed=2))
+    rng = np.random.default_rng(3)
+    cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary)
+    compared = 0
+    for _ in range(6):
+        syms = [_random_symbol(rng, 1, f"u{i}", data, cfg) for i in range(n_unary)] + \
+               [_random_symbol(rng, 2, f"b{i}", data, cfg) for i in range(n_binary)]
+        u = unary_truth(syms[:n_unary], data.features).astype(np.uint8)[data.pre]
+        b = binary_truth(syms[n_unary:], data.pairs).astype(np.uint8)[data.pre]
+        for lock, label in [(data.lock, data.label), (np.zeros_like(data.lock), np.zeros_like(data.label))]:
+            fast = Loss(data).neighbours(u, b, lock, label)
+            monkeypatch.setattr(loss_mod, "ENUMERATE_MAX", 0)
+            slow = Loss(data).neighbours(u, b, lock, label)
+            monkeypatch.undo()
+            assert fast.hits.keys() == slow.hits.keys()
+            compared += len(fast.hits)
+            for k, (d, hits) in fast.hits.items():
+                assert d == slow.hits[k][0]
+                assert [c for c, _ in hits] == sorted(c for c, _ in slow.hits[k][1])
+                i = fast.members[k][0]
+                q = Encoded(u[i][fast.perms[i]], b[i][fast.perms[i]][:, fast.perms[i]], np.zeros(0, np.uint8),
+                            lock[i][fast.perms[i]], int(label[i]))
+                for c, sigma in hits:   # each permutation reaches the distance
+                    j = fast.members[c][0]
+                    p = fast.perms[j]
+                    cand = Encoded(u[j][p], b[j][p][:, p], np.zeros(0, np.uint8), lock[j][p], int(label[j]))
+                    assert permutation_cost(q, cand, sigma) == d
+    assert compared >= 10

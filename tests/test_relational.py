@@ -39,14 +39,22 @@ def test_exact_symbolic_distance_matches_enumeration(seed):
 
 
 def test_threshold_search_only_proves_a_lower_bound():
+    """Stopped at a threshold, the search returns a value between the threshold and the distance."""
     rng = np.random.default_rng(7)
-    a = _random_encoded(rng, 6, 1, 1, 0.4)
-    b = _random_encoded(rng, 6, 1, 1, 0.4)
-    exact, _ = exact_state_distance(a, b)
-    bound, perm = exact_state_distance(a, b, threshold=exact)
-    assert perm is None and bound >= exact - 1e-9 or perm is not None and bound == exact
-    d, perm = exact_state_distance(a, b, threshold=exact + 0.5)
-    assert d == exact and perm is not None
+    stopped = 0
+    for _ in range(60):
+        m = int(rng.integers(3, 7))
+        a = _random_encoded(rng, m, 1, 2, float(rng.uniform(0.1, 0.6)))
+        b = _random_encoded(rng, m, 1, 2, float(rng.uniform(0.1, 0.6)))
+        exact, _ = exact_state_distance(a, b)
+        for threshold in (exact - 2.5, exact - 0.5, exact, exact + 0.5):
+            bound, perm = exact_state_distance(a, b, threshold=threshold)
+            if perm is None:
+                stopped += 1
+                assert threshold <= bound <= exact
+            else:
+                assert bound == exact < threshold
+    assert stopped > 60
 
 
 def test_different_primitives_never_match():
@@ -151,3 +159,16 @@ def test_bit_parallel_enumeration_matches_branch_and_bound():
             assert dd == exact_state_distance(q, c)[0]
             if dd < INF:
                 assert permutation_cost(q, c, p) == dd
+
+
+def test_permuted_words_pack_each_permuted_state():
+    """Placing only the set bits gives the same words as packing every permuted state."""
+    from groundsym.relational import _words, all_permutations, permuted_words
+    rng = np.random.default_rng(5)
+    for m, k, l, density in [(4, 1, 1, 0.3), (5, 3, 3, 0.5), (6, 2, 2, 0.05), (3, 0, 2, 1.0), (4, 1, 1, 0.0)]:
+        q = _random_encoded(rng, m, k, l, density)
+        sig = all_permutations(m)
+        which = rng.choice(len(sig), size=min(len(sig), 40), replace=False)
+        want = _words(np.stack([np.concatenate([q.unary[s].ravel(), q.binary[s][:, s].ravel()]) for s in sig[which]]))
+        assert np.array_equal(permuted_words(q, which), want)
+        assert permuted_words(q).shape == (len(sig), want.shape[1])
