@@ -135,11 +135,26 @@ def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossDa
         ignore[int(rng.integers(len(scale)))] = False
     widths[ignore] = IGNORE_WIDTH * scale[ignore]
     share = float(np.exp(rng.uniform(np.log(cfg.share_range[0]), np.log(cfg.share_range[1]))))
-    dist = np.sqrt((((pts - centre) / widths) ** 2).sum(-1))
-    radius = float(np.quantile(dist, share))
+    used = ~ignore             # the share is set by the dimensions the symbol looks at
+    dist = np.sqrt((((pts[:, used] - centre[used]) / widths[used]) ** 2).sum(-1))
+    radius = share_radius(dist, share)
     if radius > 0:
-        widths = widths * radius / np.sqrt(np.log(2.0)) * 1.0001
+        widths[used] = widths[used] * radius / np.sqrt(np.log(2.0))
     return Symbol(name, arity, np.array(centre, dtype=float), widths)
+
+
+def share_radius(dist: np.ndarray, share: float) -> float:
+    """A radius that holds about ``share`` of the points at distances ``dist``, midway between the
+    nearest point left out and the farthest one kept.
+
+    Midway, not at a point: features such as size take a few values only, so many points lie at
+    exactly the same distance (every ball at distance 0 of a ball's size); a radius on a point
+    would leave them on the boundary, and a radius of 0 would make a symbol true nowhere.
+    """
+    k = min(max(int(np.ceil(share * len(dist))) - 1, 0), len(dist) - 1)
+    inner = float(np.partition(dist, k)[k])
+    outer = dist[dist > inner]
+    return (inner + float(outer.min())) / 2 if len(outer) else inner * 1.0001
 
 
 def _perturb(rng: np.random.Generator, s: Symbol, cfg: AnnealConfig) -> Symbol:

@@ -4,11 +4,11 @@ it finds the intended symbols of the kinematic fixture world."""
 import numpy as np
 import pytest
 
-from groundsym.anneal import IGNORE_WIDTH, AnnealConfig, _random_symbol, anneal, prune, temperature
+from groundsym.anneal import IGNORE_WIDTH, AnnealConfig, _random_symbol, anneal, prune, share_radius, temperature
 from groundsym.grounding import match_symbols
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.symbols import Symbol, SymbolSet
-from tests.test_loss import intended_symbols, kinematic_tower
+from tests.test_loss import SIZES, intended_symbols, kinematic_tower
 
 
 @pytest.fixture(scope="module")
@@ -114,8 +114,37 @@ def test_new_symbols_ignore_dimensions_at_the_configured_rate():
     for p, lo, hi in ((0.0, 0.0, 0.0), (0.25, 0.18, 0.32)):
         cfg = AnnealConfig(p_ignore=p)
         ratios = np.stack([_random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale for _ in range(400)])
-        # the share scaling shrinks or stretches all widths alike: an ignored dimension stays far
-        # wider than the others of its symbol, and never all of them are ignored
-        ignored = ratios >= ratios.min(axis=1, keepdims=True) * IGNORE_WIDTH / AnnealConfig().width_range[1] * 0.999
+        # the share scaling shapes only the dimensions a symbol looks at: an ignored one keeps its width
+        ignored = np.isclose(ratios, IGNORE_WIDTH)
         assert lo <= ignored.mean() <= hi
         assert not ignored.all(axis=1).any()
+
+
+def test_share_radius_falls_between_points():
+    # discrete distances (a feature with few values): the radius keeps whole groups of ties
+    dist = np.array([0.0] * 4 + [1.0] * 6 + [3.0] * 10)
+    assert share_radius(dist, 0.1) == 0.5        # the four at 0, none at 1
+    assert share_radius(dist, 0.3) == 2.0        # 0 and 1 kept, 3 left out
+    assert share_radius(dist, 1.0) == pytest.approx(3.0003)
+    rng = np.random.default_rng(1)
+    cont = rng.random(1000)
+    for share in (0.01, 0.2, 0.5):
+        assert (cont < share_radius(cont, share)).mean() == pytest.approx(share, abs=0.002)
+
+
+def test_a_size_only_symbol_centred_on_a_ball_holds_for_the_balls():
+    """With sizes of three values, a new symbol that looks at size only is ``ball`` exactly."""
+    from groundsym.symbols import unary_truth
+    d = prepare(kinematic_tower(4, seed=2))
+    sizes = d.features[..., 3]
+    ball = np.isclose(sizes, SIZES[0])          # the small cubes play the balls here
+    rng = np.random.default_rng(4)
+    seen = 0
+    for _ in range(3000):
+        s = _random_symbol(rng, 1, "u", d, AnnealConfig(p_ignore=0.7))
+        size_only = np.isclose(s.widths[:3] / d.unary_scale[:3], IGNORE_WIDTH).all()
+        if size_only and np.isclose(s.centre[3], SIZES[0]):
+            seen += 1
+            truth = unary_truth([s], d.features)[..., 0]
+            assert np.array_equal(truth, ball)
+    assert seen >= 5
