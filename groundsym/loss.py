@@ -421,6 +421,9 @@ class Loss:
         _, combo = group_rows(np.concatenate([nb.cls.astype(np.int64).view(np.uint8).reshape(len(idx), -1), flat], 1))
         uniform = np.bincount(nb.cls, minlength=len(nb.members)) == np.bincount(
             nb.cls, weights=(combo == combo[nb.members_first()[nb.cls]]), minlength=len(nb.members))
+        who: list[np.ndarray] = []   # per lone item and neighbour: the item, the neighbour, the map
+        js: list[np.ndarray] = []
+        sig: list[np.ndarray] = []
         for k, group in enumerate(nb.members):
             if len(group) > 1 and uniform[k]:
                 ll[group] = n_lit * log_ok
@@ -436,26 +439,31 @@ class Loss:
                 ll[group] = (top[:, 0] + np.log(tot) - math.log(len(group) - 1))[inv.ravel()]
                 continue
             i = group[0]
-            best, hits = nb.hits[k]
+            hits = nb.hits[k][1]
             if not hits:             # no comparable neighbour: predict no change
                 mis = int((u[d.pre[i]] != u[d.post[i]]).sum() + (b[d.pre[i]] != b[d.post[i]]).sum())
                 ll[i] = mis * log_eps + (n_lit - mis) * log_ok
                 continue
-            js = np.concatenate([nb.members[c] for c, _ in hits])
-            sig = np.concatenate([np.repeat(s[None], len(nb.members[c]), 0) for c, s in hits])
-            pred_u = succ_u[js[:, None], sig]
-            pred_b = succ_b[js[:, None, None], sig[:, :, None], sig[:, None, :]]
+            for c, sigma in hits:
+                who.append(np.full(len(nb.members[c]), i))
+                js.append(nb.members[c])
+                sig.append(np.broadcast_to(sigma, (len(nb.members[c]), m)))
+        if js:  # lone items, all at once: each neighbour's prediction, then a mixture per item
+            item, nbr, smap = np.concatenate(who), np.concatenate(js), np.concatenate(sig)
+            pred_u = succ_u[nbr[:, None], smap]
+            pred_b = succ_b[nbr[:, None, None], smap[:, :, None], smap[:, None, :]]
             if changes:  # the literals the neighbour's primitive changed take its values; the rest stay
-                obj = perms[js[:, None], sig]           # neighbour objects in i's canonical order
-                rows = d.pre[js]
+                obj = perms[nbr[:, None], smap]           # neighbour objects in the item's canonical order
+                rows = d.pre[nbr]
                 was_u = u[rows[:, None], obj]
                 was_b = b[rows[:, None, None], obj[:, :, None], obj[:, None, :]]
-                own = perms[i]
-                pred_u = np.where(was_u != pred_u, pred_u, u[d.pre[i]][own])
-                pred_b = np.where(was_b != pred_b, pred_b, b[d.pre[i]][own[:, None], own[None, :]])
-            mis = (pred_u != succ_u[i]).sum((1, 2)) + (pred_b != succ_b[i]).sum((1, 2, 3))
+                own, now = perms[item], d.pre[item]
+                pred_u = np.where(was_u != pred_u, pred_u, u[now[:, None], own])
+                pred_b = np.where(was_b != pred_b, pred_b, b[now[:, None, None], own[:, :, None], own[:, None, :]])
+            mis = (pred_u != succ_u[item]).sum((1, 2)) + (pred_b != succ_b[item]).sum((1, 2, 3))
             lp = mis * log_eps + (n_lit - mis) * log_ok
-            ll[i] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
+            items, at = np.unique(item, return_inverse=True)
+            ll[items] = _group_logmeanexp(at.ravel(), lp, len(items))
         return float(-ll.sum())
 
     def _reward_nll(self, u: np.ndarray, b: np.ndarray) -> float:
@@ -465,6 +473,8 @@ class Loss:
         s2 = self.sigma ** 2
         norm = -0.5 * math.log(2 * math.pi * s2)
         ll = np.zeros(n)
+        who: list[np.ndarray] = []   # per lone item and neighbour: the item, the neighbour
+        nbr: list[np.ndarray] = []
         for k, group in enumerate(nb.members):
             if len(group) > 1:
                 r = d.reward[group]
@@ -473,11 +483,15 @@ class Loss:
                 top = lp.max(1, keepdims=True)
                 ll[group] = top[:, 0] + np.log(np.exp(lp - top).sum(1) / (len(group) - 1))
                 continue
-            _, hits = nb.hits[k]
-            if hits:
-                r = d.reward[np.concatenate([nb.members[c] for c, _ in hits])]
-                lp = norm - (d.reward[group[0]] - r) ** 2 / (2 * s2)
-                ll[group[0]] = lp.max() + math.log(np.mean(np.exp(lp - lp.max())))
+            hits = nb.hits[k][1]
+            for c, _ in hits:
+                who.append(np.full(len(nb.members[c]), group[0]))
+                nbr.append(nb.members[c])
+        if nbr:  # lone items, all at once: a mixture over each item's nearest neighbours
+            item, other = np.concatenate(who), np.concatenate(nbr)
+            lp = norm - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
+            items, at = np.unique(item, return_inverse=True)
+            ll[items] = _group_logmeanexp(at.ravel(), lp, len(items))
         return float(-ll.sum())
 
 
