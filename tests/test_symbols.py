@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from groundsym.describe import describe_symbol
+from groundsym.describe import deciding_dimensions, describe_symbol, intervals
 from groundsym.errors import UserError
 from groundsym.grounding import match_symbols, scores
 from groundsym.logic import Atom
@@ -155,3 +155,24 @@ def test_relations_fitted_as_rbf_symbols_match_them():
     np.testing.assert_allclose(under.centre, -on.centre)
     with pytest.raises(UserError, match="nonsense: not a ground-truth relation"):
         fit_relation_symbol("u9", "nonsense", ds)
+
+
+def test_describe_keeps_dimensions_that_decide_jointly_and_drops_constant_ones():
+    """Balls (size 4.5 cm) on the table among cubes of 4 and 5 cm, and objects lifted to 40 cm."""
+    rng = np.random.default_rng(0)
+    size = rng.choice([0.04, 0.045, 0.05], 3000)
+    z = np.where(rng.random(3000) < 0.1, 0.4, size / 2)
+    x = rng.uniform(0.2, 0.8, 3000)
+    data = np.column_stack([x, np.zeros(3000), z, size])
+    # an ellipsoid whose size interval alone spans every size, but which keeps only the balls on
+    # the table, and whose far, wide x adds about 0.2 to every point's distance
+    ball = Symbol("u1", 1, np.array([-5.0, 0.0, 0.02, 0.045]), np.array([12.0, 10.0, 0.5, 0.00674]))
+    holds = ball.holds(data)
+    assert np.array_equal(holds, np.isclose(size, 0.045) & (z < 0.1))
+    text = describe_symbol(ball, ("x", "y", "z", "size"), data)
+    assert "size between" in text and "x between" not in text and "y between" not in text
+    assert intervals(ball)[3, 0] < 0.04 and intervals(ball)[3, 1] > 0.05   # alone, size spans all sizes
+    keep, offset = deciding_dimensions(ball, data)
+    assert keep.tolist() == [False, False, True, True] and 0.18 < offset < 0.24
+    lo, hi = intervals(ball, offset)[3]
+    assert 0.040 < lo < 0.045 < hi < 0.050   # allowing for x's constant: the balls' size only
