@@ -21,6 +21,10 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from groundsym.fileio import atomic_write_json, atomic_write_text  # noqa: E402
+
 GROUNDSYM = [sys.executable, "-m", "groundsym.cli"]
 
 
@@ -97,14 +101,14 @@ def main() -> int:
     report = {"evals": args.evals, "restarts": args.restarts, "unary": args.unary, "binary": args.binary,
               "sim_opt": args.sim_opt, "train_traces": args.train_traces, "test_traces": args.test_traces,
               "runs": rows}
-    (args.out / "report.json").write_text(json.dumps(report, indent=1) + "\n")
+    atomic_write_json(args.out / "report.json", report)
     lines = ["| seed | loss | symbol | best match | order | precision | recall | F1 |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         for m in r["symbols"]:
             lines.append(f"| {r['seed']} | {r['loss']:.1f} | {m['symbol']} | {m['best_match']} | {m['argument_order']} "
                          f"| {m['precision']:.3f} | {m['recall']:.3f} | {m['f1']:.3f} |")
     text = "\n".join(lines) + "\n"
-    (args.out / "report.md").write_text(text)
+    atomic_write_text(args.out / "report.md", text)
     print(text)
     return 0
 
