@@ -33,6 +33,9 @@ from .symbols import Symbol, binary_truth, unary_truth
 CHECKPOINT_SCHEMA = "groundsym.anneal-checkpoint/1"
 
 
+LOOKS = ("independent", "subset")   # how a new symbol chooses the dimensions it ignores
+
+
 @dataclass(frozen=True)
 class AnnealConfig:
     """Search settings; ``evals`` is the total budget over all restarts (the paper used ~1e5)."""
@@ -51,6 +54,7 @@ class AnnealConfig:
     share_range: tuple[float, float] = (0.005, 0.3)  # a new symbol holds for this share of the data
     p_moved: float = 0.5         # share of new centres drawn from objects/pairs a primitive moved
     p_ignore: float = 0.25       # a new symbol ignores each feature dimension with this probability
+    looks: str = "independent"   # or "subset": how many dimensions a new symbol looks at is uniform
     chunk: int = 500             # evaluations per restart between checkpoints
 
     def __post_init__(self) -> None:
@@ -60,6 +64,8 @@ class AnnealConfig:
             raise ValueError("need at least one restart, one candidate and one evaluation per restart")
         if not 0 <= self.p_ignore < 1:
             raise ValueError(f"p_ignore must be in [0, 1), got {self.p_ignore}")
+        if self.looks not in LOOKS:
+            raise ValueError(f"looks must be one of {', '.join(LOOKS)}, got {self.looks!r}")
 
     def budget(self, restart: int) -> int:
         base, extra = divmod(self.evals, self.restarts)
@@ -112,6 +118,20 @@ def _points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 IGNORE_WIDTH = 100.0  # an ignored dimension's width, x the data's spread (the loss caps its cost)
 
 
+def _ignored_dimensions(rng: np.random.Generator, n: int, cfg: AnnealConfig) -> np.ndarray:
+    """Which of ``n`` dimensions a new symbol ignores: each with probability ``p_ignore``
+    (``looks="independent"``, never all), or all but a random subset whose size is uniform in 1..n
+    (``looks="subset"``: symbols of one dimension, such as size or height alone, as often as any)."""
+    if cfg.looks == "subset":
+        ignore = np.ones(n, dtype=bool)
+        ignore[rng.choice(n, int(rng.integers(1, n + 1)), replace=False)] = False
+        return ignore
+    ignore = rng.random(n) < cfg.p_ignore
+    if ignore.all():
+        ignore[int(rng.integers(n))] = False
+    return ignore
+
+
 def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
     """A centre drawn from the data (an object or an ordered pair of distinct objects; half of the
     time one that a primitive moved, before or after the move, since symbols should reflect what
@@ -130,9 +150,7 @@ def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossDa
     scale = data.unary_scale if arity == 1 else data.pair_scale
     lo, hi = np.log(cfg.width_range)
     widths = scale * np.exp(rng.uniform(lo, hi, len(scale)))
-    ignore = rng.random(len(scale)) < cfg.p_ignore
-    if ignore.all():
-        ignore[int(rng.integers(len(scale)))] = False
+    ignore = _ignored_dimensions(rng, len(scale), cfg)
     widths[ignore] = IGNORE_WIDTH * scale[ignore]
     share = float(np.exp(rng.uniform(np.log(cfg.share_range[0]), np.log(cfg.share_range[1]))))
     used = ~ignore             # the share is set by the dimensions the symbol looks at

@@ -148,3 +148,14 @@ def test_a_size_only_symbol_centred_on_a_ball_holds_for_the_balls():
             truth = unary_truth([s], d.features)[..., 0]
             assert np.array_equal(truth, ball)
     assert seen >= 5
+
+def test_subset_looks_draws_the_number_of_dimensions_uniformly():
+    d = prepare(kinematic_tower(4, seed=2))
+    rng = np.random.default_rng(2)
+    cfg = AnnealConfig(looks="subset")
+    looked = [int((~np.isclose(_random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale, IGNORE_WIDTH)).sum())
+              for _ in range(800)]
+    counts = np.bincount(looked, minlength=5)
+    assert counts[0] == 0 and all(150 <= c <= 250 for c in counts[1:])   # 200 each expected
+    with pytest.raises(ValueError, match="looks must be one of"):
+        AnnealConfig(looks="sometimes")
