@@ -269,9 +269,7 @@ class Loss:
         enumerated, and one order of each group of interchangeable objects.
         """
         q = np.asarray(lone, dtype=np.int64)
-        n_unary = t.unary.shape[2]
-        diff = np.abs(t.profile[q][:, None, :] - t.profile[None, :, :]).astype(float)
-        bound = diff[..., :n_unary].sum(-1) + 0.5 * diff[..., n_unary:].sum(-1)
+        bound = profile_bound(t.profile, q, t.unary.shape[2])
         bound[~((t.labels[q][:, None] == t.labels[None]) & (t.lock_group[q][:, None] == t.lock_group[None]))] = INF
         bound[np.arange(len(q)), q] = INF
         order = np.argsort(bound, axis=1, kind="stable")
@@ -593,15 +591,17 @@ def _profiles(u: np.ndarray, b: np.ndarray, reps: np.ndarray) -> np.ndarray:
     return np.concatenate([u.sum(1), out_deg, in_deg], axis=1)
 
 
-def profile_bound(profile: np.ndarray, k: int, n_unary: int) -> np.ndarray:
-    """A lower bound on the distance of class ``k`` to every class, from the profiles.
+def profile_bound(profile: np.ndarray, k: int | np.ndarray, n_unary: int) -> np.ndarray:
+    """A lower bound on the distance of class ``k`` (or of each class in an array ``k``: one row
+    each) to every class, from the profiles.
 
     Unary: per-symbol count differences. Binary: each mismatched ordered pair is charged to the
     out-degree of its first and the in-degree of its second object, so half the L1 difference of
     the degree sequences (sorted, which is the best 1-D matching) is admissible.
     """
-    diff = np.abs(profile - profile[k]).astype(float)
-    return diff[:, :n_unary].sum(1) + 0.5 * diff[:, n_unary:].sum(1)
+    diff = np.abs(profile[None, :, :] - profile[np.atleast_1d(k)][:, None, :]).astype(float)
+    bound = diff[..., :n_unary].sum(-1) + 0.5 * diff[..., n_unary:].sum(-1)
+    return bound if np.ndim(k) else bound[0]
 
 
 def width_penalty(widths: np.ndarray, scale: np.ndarray, cap: float = 0.0) -> float:
