@@ -7,8 +7,9 @@ the data shows the difference (diagnosis only: it reads the truth, which learnin
 
     python examples/tower_outcomes.py results/balls/data/train_1.json [more traces files]
 
-Prints, per file, the grasps (of cubes and balls: succeeded or not) and the releases with an object
-in the hand (held kind over target kind: on the target afterwards or not).
+Prints, per file, the grasps (of cubes and balls: succeeded / tried) and the releases with an object
+in the hand (held kind over target kind: on the target afterwards / tried), and how many releases
+were over a ball (where ``ball`` changes the prediction).
 """
 
 from __future__ import annotations
@@ -55,8 +56,8 @@ def main() -> int:
             return 2
         events = sorted({e for e, _ in counts})
         cells = [f"{e} {counts[(e, True)]}/{counts[(e, True)] + counts[(e, False)]}" for e in events]
-        over_ball = sum(n for (e, _), n in counts.items() if e.endswith("over ball") or e.startswith("ball over"))
-        print(f"{path}: " + ", ".join(cells) + f"; releases involving a ball: {over_ball}")
+        over_ball = sum(n for (e, _), n in counts.items() if e.endswith("over ball"))
+        print(f"{path}: " + ", ".join(cells) + f"; releases over a ball: {over_ball}")
     return 0
 
 
