@@ -135,10 +135,12 @@ def _ignored_dimensions(rng: np.random.Generator, n: int, cfg: AnnealConfig) -> 
 def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossData, cfg: AnnealConfig) -> Symbol:
     """A centre drawn from the data (an object or an ordered pair of distinct objects; half of the
     time one that a primitive moved, before or after the move, since symbols should reflect what
-    primitives change) and random widths, scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform).
-    Each dimension is ignored (a width far beyond the data's spread) with probability ``p_ignore``:
-    symbols such as ``ball`` (by size, at any position) or "in the same stack" (any height
-    difference) say nothing about some dimensions, and random widths almost never find that.
+    primitives change) and random widths. Some dimensions are ignored (a width far beyond the
+    data's spread; which ones: :func:`_ignored_dimensions`): symbols such as ``ball`` (by size, at
+    any position) or "in the same stack" (any height difference) say nothing about some
+    dimensions, and random widths almost never find that. The widths of the other dimensions are
+    then scaled so that the symbol holds for a random share of the data (0.5% to 30%, log-uniform;
+    :func:`share_radius`).
 
     Without the scaling most proposals are never or almost always true (random widths over several
     dimensions rarely fit the data), and a search wastes its re-seeds on them.
