@@ -4,12 +4,13 @@ For each learned symbol, every ground-truth relation of the same arity found in 
 scored over all their scenes: unary symbols over (scene, object), binary ones over (scene, ordered
 pair of distinct objects), in both argument orders, since a binary symbol may learn a relation with
 its arguments swapped ("under" for "on"). The best match by F1 is reported with its precision and
-recall.
+recall, and, for a unary symbol whose negation matches some relation better (it learned "not in
+the hand"), that relation too.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,13 +31,20 @@ class Match:
     precision: float
     recall: float
     f1: float
+    # unary symbols: the relation the symbol's negation matches best, when that beats ``f1`` (a
+    # symbol may learn "not in the hand"); shown in words, not part of the JSON document
+    negation_of: str | None = None
+    negation_f1: float = 0.0
 
     def __str__(self) -> str:
         if self.best_match is None:
             return f"{self.symbol}/{self.arity}: no ground-truth relation of arity {self.arity}"
         order = " (arguments swapped)" if self.argument_order == "swapped" else ""
-        return (f"{self.symbol}/{self.arity} ~ {self.best_match}{order}: precision {self.precision:.3f}, "
+        text = (f"{self.symbol}/{self.arity} ~ {self.best_match}{order}: precision {self.precision:.3f}, "
                 f"recall {self.recall:.3f}, F1 {self.f1:.3f}")
+        if self.negation_of is not None:
+            text += f"; its negation ~ {self.negation_of}: F1 {self.negation_f1:.3f}"
+        return text
 
     def to_doc(self) -> dict[str, Any]:
         return {"symbol": self.symbol, "arity": self.arity, "best_match": self.best_match,
@@ -86,7 +94,11 @@ def match_symbols(symbols: SymbolSet, ds: Dataset) -> list[Match]:
     out = []
     for k, s in enumerate(symbols.unary):
         cands = [(scores(u[..., k], t), name, "same") for name, t in sorted(true_u.items())]
-        out.append(_best(s.name, 1, cands))
+        match = _best(s.name, 1, cands)
+        negated = _best(s.name, 1, [(scores(~u[..., k], t), name, "same") for name, t in sorted(true_u.items())])
+        if negated.best_match is not None and negated.f1 > match.f1:
+            match = replace(match, negation_of=negated.best_match, negation_f1=negated.f1)
+        out.append(match)
     for k, s in enumerate(symbols.binary):
         pred = b[..., k] & off
         cands = []

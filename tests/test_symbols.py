@@ -176,3 +176,15 @@ def test_describe_keeps_dimensions_that_decide_jointly_and_drops_constant_ones()
     assert keep.tolist() == [False, False, True, True] and 0.18 < offset < 0.24
     lo, hi = intervals(ball, offset)[3]
     assert 0.040 < lo < 0.045 < hi < 0.050   # allowing for x's constant: the balls' size only
+
+
+def test_grounding_names_the_relation_a_negated_symbol_matches():
+    """A symbol learned as "not in the hand" (z below 35 cm; the hand holds at 45 cm)."""
+    ds = kinematic_tower(4, seed=5)
+    not_held = Symbol("u1", 1, np.array([0.3, 0.0, 0.0, 0.05]), np.array([100.0, 100.0, 0.35 / np.sqrt(np.log(2)), 100.0]))
+    m = match_symbols(SymbolSet((not_held,), NAMES), ds)[0]
+    assert m.f1 == 0.0 and (m.negation_of, m.negation_f1) == ("inhand", 1.0)
+    assert "its negation ~ inhand: F1 1.000" in str(m)
+    assert set(m.to_doc()) == {"symbol", "arity", "best_match", "argument_order", "precision", "recall", "f1"}
+    held = match_symbols(SymbolSet(tuple(intended_symbols()[:1]), NAMES), ds)[0]
+    assert held.best_match == "inhand" and held.negation_of is None
