@@ -104,7 +104,10 @@ def test_finds_inhand_and_on_in_the_fixture_world():
     assert res.terms.total <= Loss(data)(intended_symbols()).total   # at least as good as the known answer
     matches = {m.arity: m for m in match_symbols(SymbolSet(tuple(res.symbols), ds.feature_names),
                                                  kinematic_tower(20, seed=99))}
-    assert matches[1].best_match == "inhand" and matches[1].f1 >= 0.9
+    # `inhand`, or its complement "not in the hand" (the same information; an RBF cannot be
+    # negated, and the loss scores both alike): the search finds either
+    u = matches[1]
+    assert (u.best_match == "inhand" and u.f1 >= 0.9) or (u.negation_of == "inhand" and u.negation_f1 >= 0.9)
     assert matches[2].best_match == "on" and matches[2].f1 >= 0.8
 
 
