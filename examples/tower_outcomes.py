@@ -25,6 +25,9 @@ from groundsym.errors import UserError  # noqa: E402
 from groundsym.traces import Dataset, read_traces  # noqa: E402
 
 
+KIND = {True: "ball", False: "cube"}   # is a ball -> the word
+
+
 def outcomes(ds: Dataset) -> Counter:
     """(event, success) -> count: "grab ball", "cube over ball", ... as the truth atoms tell."""
     counts: Counter = Counter()
@@ -34,13 +37,12 @@ def outcomes(ds: Dataset) -> Counter:
             balls = {a.args[0] for a in pre.truth if a.predicate == "ball"}
             held = [a.args[0] for a in pre.truth if a.predicate == "inhand"]
             target = action.args[0]
-            kind = {True: "ball", False: "cube"}
             if action.predicate == "openHandOver" and held:
                 stacked = any(a.predicate == "on" and a.args == (held[0], target) for a in post.truth)
-                counts[(f"{kind[held[0] in balls]} over {kind[target in balls]}", stacked)] += 1
+                counts[(f"{KIND[held[0] in balls]} over {KIND[target in balls]}", stacked)] += 1
             elif action.predicate == "closeHandAround" and not held:
                 grasped = any(a.predicate == "inhand" and a.args[0] == target for a in post.truth)
-                counts[(f"grab {kind[target in balls]}", grasped)] += 1
+                counts[(f"grab {KIND[target in balls]}", grasped)] += 1
     return counts
 
 

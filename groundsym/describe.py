@@ -53,22 +53,20 @@ def deciding_dimensions(symbol: Symbol, data: np.ndarray, tol: float = 0.001) ->
     const = np.zeros(terms.shape[1])
     while keep.any():
         base = terms[:, keep].sum(1) + const[~keep].sum()
-        best = (np.inf, -1, 0.0)
-        for d in np.flatnonzero(keep):
-            rest = base - terms[:, d]
-            for c in options[:, d]:
-                wrong = float(np.mean((rest + c < LN2) != truth))
-                if wrong < best[0]:
-                    best = (wrong, int(d), float(c))
-        if best[0] > tol:
+        cols = np.flatnonzero(keep)
+        # (N, kept, options): the truth with each kept dimension's term replaced by each constant
+        replaced = (base[:, None, None] - terms[:, cols, None] + options[:, cols].T[None]) < LN2
+        wrong = (replaced != truth[:, None, None]).mean(0)          # (kept, options)
+        d, c = np.unravel_index(int(np.argmin(wrong)), wrong.shape)
+        if wrong[d, c] > tol:
             break
-        keep[best[1]], const[best[1]] = False, best[2]
+        keep[cols[d]], const[cols[d]] = False, options[c, cols[d]]
     return keep, float(const[~keep].sum())
 
 
 def intervals(symbol: Symbol, offset: float = 0.0) -> np.ndarray:
     """(n, 2): where the symbol can hold along each dimension alone, the others at the centre (or
-    adding ``offset`` to the distance); empty intervals (lo > hi) where it cannot."""
+    adding ``offset`` to the distance); a single point (lo = hi) where ``offset`` leaves no room."""
     r = symbol.widths * math.sqrt(max(LN2 - offset, 0.0))
     return np.column_stack([symbol.centre - r, symbol.centre + r])
 

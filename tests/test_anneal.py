@@ -152,6 +152,7 @@ def test_a_size_only_symbol_centred_on_a_ball_holds_for_the_balls():
             assert np.array_equal(truth, ball)
     assert seen >= 5
 
+
 def test_subset_looks_draws_the_number_of_dimensions_uniformly():
     d = prepare(kinematic_tower(4, seed=2))
     rng = np.random.default_rng(2)
