@@ -82,8 +82,10 @@ def test_planners_that_cannot_take_the_domain_are_refused():
         solve(plain, plain_problem, planner="fast-downward-opt")
     msg = str(exc.value)
     assert "\n" not in msg and "cannot take domain tower-cell" in msg and "conditional-effects" in msg
-    with pytest.raises(UserError, match="unknown planner 'pyperplan'"):
-        solve(plain, plain_problem, planner="pyperplan")
+    with pytest.raises(UserError, match="unknown planner 'no-such-planner'"):
+        solve(plain, plain_problem, planner="no-such-planner")
+    with pytest.raises(UserError, match="planner 'pyperplan' cannot take domain tower-cell: .*negative-conditions"):
+        solve(plain, plain_problem, planner="pyperplan")     # STRIPS only
     # the STRIPS-like blocks world is fine for the optimal configuration
     bw, bwp = determinize(*load(REF / "blocksworld/domain.ppddl", REF / "blocksworld/p01.ppddl"))
     assert solve(bw, bwp, planner="fast-downward-opt")
