@@ -120,6 +120,7 @@ class LossData:
     sigma: float              # reward sigma from the data
     unary_scale: np.ndarray   # (n,) spread of the unary features
     pair_scale: np.ndarray    # (n',) spread of the pair features (distinct pairs)
+    change_tol: float = LossConfig.change_tol  # the setting ``changed`` was computed with
 
     @property
     def n_transitions(self) -> int:
@@ -172,7 +173,7 @@ def prepare(ds: Dataset, config: LossConfig = LossConfig(), path: str = "<traces
     sigma = config.reward_sigma or reward_sigma(ds, config.sigma_factor)
     return LossData(features, pairs, pre_a, post_a, np.array(label), np.array(locks),
                     np.array(reward, dtype=float), changed, sigma,
-                    unary_scale, spread(pairs[:, off].reshape(-1, pairs.shape[-1])))
+                    unary_scale, spread(pairs[:, off].reshape(-1, pairs.shape[-1])), config.change_tol)
 
 
 class Loss:

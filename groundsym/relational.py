@@ -40,6 +40,7 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .canonical import canonical_forms, twin_groups_of  # noqa: F401 (re-exported for the loss)
 from .logic import Atom
 from .world import Scene
 
@@ -134,15 +135,6 @@ def permutation_cost(a: Encoded, b: Encoded, perm: np.ndarray) -> float:
 def twin_groups(e: Encoded) -> np.ndarray:
     """Group id per object: objects in one group are interchangeable (swapping any two leaves e)."""
     return twin_groups_of(e.unary[None], e.binary[None], e.lock[None])[0]
-
-
-def twin_groups_of(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.ndarray:
-    """:func:`twin_groups` of a batch: ``unary`` (N, M, K), ``binary`` (N, M, M, L), ``lock`` (N, M)."""
-    n, m = unary.shape[:2]
-    if m == 0:
-        return np.zeros((n, 0), dtype=np.int64)
-    tw = _twins(_codes(unary) + (lock.astype(np.int64) << unary.shape[2]), _codes(binary))
-    return np.argmax(tw, axis=2)  # first twin = group id
 
 
 class _Search:
@@ -663,146 +655,3 @@ def _collect(results: list[tuple[float, dict[str, str]]], tol: float,
     hits = [(index[k], m) for k, (d, m) in enumerate(results) if d <= best + tol]
     hits.sort(key=lambda h: h[0])
     return Neighbours(best, tuple(k for k, _ in hits), tuple(m for _, m in hits))
-
-
-# ----------------------------------------------------------------------------- canonical forms
-
-_M1, _M2 = np.uint64(0xFF51AFD7ED558CCD), np.uint64(0xC4CEB9FE1A85EC53)
-_P = tuple(np.uint64(v) for v in (0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB,
-                                  0xD6E8FEB86659FD93, 0x2545F4914F6CDD1D))
-
-
-def _mix(x: np.ndarray) -> np.ndarray:
-    """A 64-bit finaliser: spreads bits so that sums of mixed values behave as multiset hashes."""
-    x = x ^ (x >> np.uint64(33))
-    x = x * _M1
-    x = x ^ (x >> np.uint64(33))
-    x = x * _M2
-    return x ^ (x >> np.uint64(33))
-
-
-def _codes(bits: np.ndarray) -> np.ndarray:
-    """Pack the last axis of a 0/1 array into integers (up to 62 bits)."""
-    if bits.shape[-1] == 0:
-        return np.zeros(bits.shape[:-1], dtype=np.int64)
-    return (bits.astype(np.int64) << np.arange(bits.shape[-1], dtype=np.int64)).sum(-1)
-
-
-def _colours(ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
-    """Colour refinement (Weisfeiler-Lehman) by hashing, vectorised over a batch of states.
-
-    The colours are functions of the isomorphism-invariant structure only, so ordering objects by
-    colour is the same for isomorphic states; hash collisions could only merge classes, never break
-    exactness, because the final key is always an actual encoding of the state.
-    """
-    n, m = ucode.shape
-    col = _mix(ucode.astype(np.uint64) + _P[0])
-    out_e = ecode.astype(np.uint64) * _P[1]
-    in_e = ecode.transpose(0, 2, 1).astype(np.uint64) * _P[2]
-    off = ~np.eye(m, dtype=bool)[None]
-    distinct = _n_distinct(col)
-    for _ in range(max(m - 1, 1)):
-        t = _mix(col[:, None, :] * _P[3] + out_e + _mix(in_e + col[:, None, :]))
-        nb = np.where(off, t, np.uint64(0)).sum(2, dtype=np.uint64)
-        col = _mix(col * _P[4] + nb)
-        now = _n_distinct(col)
-        if now == distinct:  # stable partition (refinement only splits classes)
-            break
-        distinct = now
-    return col
-
-
-def _n_distinct(col: np.ndarray) -> int:
-    srt = np.sort(col, axis=1)
-    return int((srt[:, 1:] != srt[:, :-1]).sum())
-
-
-def _twins(ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
-    """(N, M, M): objects i, j interchangeable (the transposition (i j) leaves the state unchanged)."""
-    m = ucode.shape[1]
-    row = (ecode[:, :, None, :] != ecode[:, None, :, :]).sum(-1)          # over k, including k in {i, j}
-    col = (ecode.transpose(0, 2, 1)[:, :, None, :] != ecode.transpose(0, 2, 1)[:, None, :, :]).sum(-1)
-    nz = ecode != 0
-    # remove the k = i and k = j terms: E[i,i]=E[j,j]=0, so they count E[j,i]!=0 and E[i,j]!=0
-    row = row - nz.transpose(0, 2, 1) - nz
-    col = col - nz - nz.transpose(0, 2, 1)
-    same = (ucode[:, :, None] == ucode[:, None, :]) & (row == 0) & (col == 0) & (ecode == ecode.transpose(0, 2, 1))
-    return same | np.eye(m, dtype=bool)[None]
-
-
-def _untwinned_ties(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray, perms: np.ndarray) -> np.ndarray:
-    """States where two objects of one colour are not interchangeable.
-
-    Interchangeability (the transposition is an automorphism) is an equivalence relation, so it is
-    enough to test neighbours in colour order: (i j) and (j k) automorphisms make (i k) one too.
-    """
-    n, m = col.shape
-    rows = np.arange(n)[:, None]
-    i, j = perms[:, :-1], perms[:, 1:]
-    tied = col[rows, i] == col[rows, j]
-    cand = np.flatnonzero(tied.any(1))
-    if not len(cand):
-        return cand
-    i, j, tied, r = i[cand], j[cand], tied[cand], cand[:, None]
-    e, et = ecode[cand], ecode[cand].transpose(0, 2, 1)
-    rr = np.arange(len(cand))[:, None]
-    k = np.arange(m)[None, None, :]
-    other = (k != i[..., None]) & (k != j[..., None])
-    same_rows = ((e[rr, i] == e[rr, j]) | ~other).all(-1)
-    same_cols = ((et[rr, i] == et[rr, j]) | ~other).all(-1)
-    twin = (ucode[r, i] == ucode[r, j]) & same_rows & same_cols & (e[rr, i, j] == e[rr, j, i])
-    return cand[(tied & ~twin).any(1)]
-
-
-def _encode_rows(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.ndarray:
-    n = unary.shape[0]
-    return np.concatenate([lock.reshape(n, -1).astype(np.uint8), unary.reshape(n, -1).astype(np.uint8),
-                           binary.reshape(n, -1).astype(np.uint8)], axis=1)
-
-
-def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
-                    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Canonical encodings of a batch of states: equal rows if and only if the states are isomorphic.
-
-    ``unary`` (N, M, K), ``binary`` (N, M, M, L) with zero diagonals, ``lock`` (N, M) small ints
-    (action argument masks; objects match only objects with the same lock). Returns ``codes``
-    (N, W) uint8 and ``perms`` (N, M): canonical position ``c`` of state ``n`` holds its object
-    ``perms[n, c]``. Objects are ordered by refined colour; when every colour class consists of
-    interchangeable objects that order is canonical already; otherwise (rare) the lexicographically
-    smallest encoding over all colour-respecting orders is taken (memoised in ``cache``, keyed by
-    the state's own encoding, when given).
-    """
-    n, m = unary.shape[:2]
-    ucode = _codes(unary) + (lock.astype(np.int64) << unary.shape[2])
-    ecode = _codes(binary)
-    col = _colours(ucode, ecode)
-    # action arguments first (by lock), then by colour: candidates with the same arguments then
-    # hold them at the same canonical positions, which the enumeration kernel relies on
-    perms = np.lexsort((col, -lock.astype(np.int64)), axis=-1)
-    bad = _untwinned_ties(ucode, ecode, col, perms) if m > 1 else np.zeros(0, dtype=np.int64)
-    idx = np.arange(n)[:, None]
-    codes = _encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
-                         lock[idx, perms])
-    for k in bad:
-        raw = _encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
-        hit = cache.get(raw) if cache is not None else None
-        if hit is None:
-            hit = _lexmin_encoding(unary[k], binary[k], lock[k], col[k])
-            if cache is not None:
-                if len(cache) > 100_000:
-                    cache.clear()
-                cache[raw] = hit
-        codes[k], perms[k] = hit
-    return codes, perms
-
-
-def _lexmin_encoding(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
-                     col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The smallest encoding over all orders that keep objects sorted by colour."""
-    colours = sorted(np.unique(col), key=lambda c: (-int(lock[np.flatnonzero(col == c)[0]]), c))
-    classes = [np.flatnonzero(col == c) for c in colours]  # arguments first, then ascending colour
-    orders = np.array([np.concatenate(parts) for parts in
-                       itertools.product(*(list(itertools.permutations(c)) for c in classes))], dtype=np.int64)
-    rows = _encode_rows(unary[orders], binary[orders[:, :, None], orders[:, None, :]], lock[orders])
-    best = np.lexsort(rows.T[::-1])[0]
-    return rows[best], orders[best]
