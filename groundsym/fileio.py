@@ -10,6 +10,7 @@ import hashlib
 import json
 import math
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -17,30 +18,74 @@ from typing import Any
 from .errors import UserError
 
 
+def output_target(path: str | Path) -> Path:
+    """The regular file an output to ``path`` replaces, refusing any other kind of place.
+
+    An existing FIFO, device, socket or directory is never replaced (``-o /dev/null`` must not turn
+    the device into a JSON file): that is a :class:`UserError`. A symbolic link is written through:
+    the file it points at is replaced and the link stays. A parent that is a file, or cannot be
+    created, is refused here too, so callers can check an output before minutes of work.
+    """
+    path = Path(path)
+    target = Path(os.path.realpath(path)) if path.is_symlink() else path
+    try:
+        st = os.stat(target)
+    except (FileNotFoundError, NotADirectoryError):
+        _check_parent(path, target.parent)
+        return target
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise UserError(f"{path}: is a directory, expected a file path")
+    if not stat.S_ISREG(st.st_mode):
+        raise UserError(f"{path}: exists and is not a regular file ({_kind(st.st_mode)}); refusing to replace it")
+    return target
+
+
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "a special file"
+
+
+def _check_parent(path: Path, parent: Path) -> None:
+    """One line when the folder an output goes into cannot exist: an ancestor is a file."""
+    for anc in (parent, *parent.parents):
+        if anc.exists():
+            if not anc.is_dir():
+                raise UserError(f"{path}: cannot write ({anc} is a file, not a directory)")
+            return
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically; raise UserError if the place is not writable."""
-    path = Path(path)
+    shown = Path(path)
+    path = output_target(shown)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:
-        raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
+        raise UserError(f"{shown}: cannot write ({exc.strerror or exc})") from None
     try:
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the user's usual mode
+        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; give the file the user's usual mode
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError):
+            raise UserError(f"{shown}: cannot write ({exc.strerror or exc})") from None
         raise
 
 
-def _umask() -> int:
+def current_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -97,6 +142,11 @@ def read_json(path: str | Path) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise UserError(f"{path}: malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise UserError(f"{path}: JSON nested too deeply to read") from None
+    except ValueError as exc:   # an integer past Python's int-from-text limit
+        what = "a number with too many digits to read" if "digits" in str(exc) else str(exc)
+        raise UserError(f"{path}: unreadable JSON: {what}") from None
 
 
 def file_sha256(path: str | Path) -> str:

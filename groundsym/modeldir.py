@@ -6,18 +6,29 @@ symbolic nearest-neighbour planner and ``export-domain`` need); ``groundsym lear
 ``symbols.json`` and ``traces.json`` beside them when it learned symbols from continuous data.
 ``load_model`` reads a directory back as one frozen :class:`Model`; the larger, optional parts
 (symbols, traces) load on first use.
+
+A directory is replaced whole (:func:`model_transaction`): the new model is built in a hidden sibling
+folder, then swapped in with two renames, so the path always holds a complete model, old or new. A
+crash between the renames leaves a named backup (``.NAME.backup``) that the next command touching the
+directory puts back (:func:`recover`). ``manifest.json`` records the SHA-256 of every part, and
+loading refuses a directory whose parts do not belong together.
 """
 
 from __future__ import annotations
 
 import hashlib
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 from .errors import UserError
-from .fileio import atomic_write_json, dumps_json
+from .fileio import atomic_write_json, current_umask, dumps_json, file_sha256, read_json
 from .provenance import provenance
 from .reward import RewardModel, fit_reward, read_reward, write_reward
 from .rules.evaluate import score_ruleset
@@ -28,6 +39,8 @@ from .symbolic_traces import SymbolicDataset, dataset_to_doc, read_symbolic_trac
 
 RULES, RULES_TXT, REWARD, SYMBOLIC = "rules.json", "rules.txt", "reward.json", "symbolic-traces.json"
 SYMBOLS, TRACES = "symbols.json", "traces.json"
+MANIFEST, MANIFEST_SCHEMA = "manifest.json", "groundsym.model/1"
+PARTS = (RULES, RULES_TXT, REWARD, SYMBOLIC, SYMBOLS, TRACES)
 
 
 def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv: list[str],
@@ -106,12 +119,159 @@ class Model:
 
 
 def load_model(directory: str | Path) -> Model:
-    """Read a model directory; one clear error line if it is not one."""
+    """Read a model directory; one clear error line if it is not one or its parts do not match."""
     d = Path(directory)
+    recover(d)
     if not d.is_dir():
         raise UserError(f"{d}: not a model directory (expected a directory holding {RULES})")
     if not (d / RULES).exists():
         raise UserError(f"{d}: not a model directory (no {RULES})")
+    check_manifest(d)
     rules, meta = read_rules(d / RULES)
     reward = read_reward(d / REWARD) if (d / REWARD).exists() else RewardModel((), (), 0.0, ())
-    return Model(d, rules, reward, meta)
+    model = Model(d, rules, reward, meta)
+    check_vocabulary(model)
+    return model
+
+
+# ------------------------------------------------------------------------------ consistency
+def write_manifest(d: Path) -> None:
+    """Record the SHA-256 of every part present, so a part from another model is noticed on load."""
+    files = {name: file_sha256(d / name) for name in PARTS if (d / name).is_file()}
+    atomic_write_json(d / MANIFEST, {"schema": MANIFEST_SCHEMA, "files": files})
+
+
+def check_manifest(d: Path) -> None:
+    """Every part the manifest lists is present and unchanged; no part it does not list is present.
+    A directory without a manifest (written by an older version, or by hand) is not checked."""
+    path = d / MANIFEST
+    if not path.exists():
+        return
+    doc = read_json(path)
+    files = doc.get("files") if isinstance(doc, dict) and doc.get("schema") == MANIFEST_SCHEMA else None
+    if not isinstance(files, dict) or not all(isinstance(v, str) for v in files.values()):
+        raise UserError(f"{path}: files: expected the schema {MANIFEST_SCHEMA!r} with an object of name: sha256")
+    for name in PARTS:
+        p = d / name
+        if name not in files:
+            if p.exists():
+                raise UserError(f"{p}: not part of this model (the manifest does not list it); "
+                                f"remove it or re-run learn")
+            continue
+        if not p.is_file():
+            raise UserError(f"{p}: missing (the model's manifest lists it); re-run learn")
+        if file_sha256(p) != files[name]:
+            raise UserError(f"{p}: changed since the model was written, or from another model "
+                            f"(its SHA-256 does not match {MANIFEST}); re-run learn")
+
+
+def check_vocabulary(model: Model) -> None:
+    """Rules, reward and symbols speak of the same predicates with the same arities."""
+    d = model.path
+    preds = model.meta.get("predicates")
+    if not isinstance(preds, dict):
+        return
+    for name, arity in model.reward.predicates:
+        if preds.get(name) != arity:
+            raise UserError(f"{d / REWARD}: predicates.{name}: not a predicate of {d / RULES} "
+                            f"with arity {arity} (the two files are from different models)")
+    if (d / SYMBOLS).is_file():
+        doc = read_json(d / SYMBOLS)
+        symbols = doc.get("symbols") if isinstance(doc, dict) else None
+        if not isinstance(symbols, list):
+            raise UserError(f"{d / SYMBOLS}: symbols: expected a list")
+        for sym in symbols:
+            name, arity = (sym.get("name"), sym.get("arity")) if isinstance(sym, dict) else (None, None)
+            if preds.get(name) != arity:
+                raise UserError(f"{d / SYMBOLS}: symbols: {name!r} (arity {arity}) is not a predicate of "
+                                f"{d / RULES} (the two files are from different models)")
+
+
+# ------------------------------------------------------------------------------ replacing a model whole
+def _backup(d: Path) -> Path:
+    d = Path(os.path.abspath(d))   # ``-o .`` has no name of its own
+    return d.with_name(f".{d.name}.backup")
+
+
+def recover(d: Path) -> None:
+    """Finish or undo a swap a crash interrupted: with no model at ``d`` but a backup, the backup
+    (the old model) goes back; with both, the swap had finished and the backup goes."""
+    backup = _backup(Path(d))
+    if not backup.is_dir():
+        return
+    if os.path.lexists(d):
+        shutil.rmtree(backup, ignore_errors=True)
+    else:
+        os.rename(backup, d)
+
+
+def check_model_output(d: Path) -> None:
+    """``-o DIR`` may be new, empty or a model directory; anything else is refused before any work
+    (replacing a folder of other files would lose them)."""
+    recover(d)
+    if os.path.islink(d):
+        raise UserError(f"{d}: is a symbolic link; give the model directory itself")
+    if not os.path.lexists(d):
+        for anc in d.parents:
+            if anc.exists():
+                if not anc.is_dir():
+                    raise UserError(f"{d}: cannot write ({anc} is a file, not a directory)")
+                if not os.access(anc, os.W_OK | os.X_OK):
+                    raise UserError(f"{d}: cannot write (no permission in {anc})")
+                break
+        return
+    if not d.is_dir():
+        raise UserError(f"{d}: exists and is not a directory")
+    entries = sorted(os.listdir(d))
+    if entries and RULES not in entries and SYMBOLS not in entries:
+        raise UserError(f"{d}: a folder that holds no model ({entries[0]}, ...); refusing to replace it, "
+                        f"choose another -o")
+    for e in entries:
+        if (d / e).is_dir() and not (d / e).is_symlink():
+            raise UserError(f"{d}: holds a folder {e!r} that is not part of a model; refusing to replace it")
+    if not os.access(d.parent, os.W_OK | os.X_OK):
+        raise UserError(f"{d}: cannot replace (no permission in {d.parent})")
+
+
+@contextmanager
+def model_transaction(d: str | Path) -> Iterator[Path]:
+    """Build a model in a sibling staging folder (yielded), then put it at ``d`` in place of the old.
+
+    On an exception or Ctrl-C the staging folder goes and ``d`` is untouched. Files at ``d`` that
+    are not model parts (a checkpoint, say) are carried over into the new directory.
+    """
+    d = Path(os.path.abspath(d))
+    check_model_output(d)
+    try:
+        d.parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=f".{d.name}.new-", dir=d.parent))
+        os.chmod(stage, 0o777 & ~current_umask())   # mkdtemp makes 0700; give the folder the user's usual mode
+    except OSError as exc:
+        raise UserError(f"{d}: cannot write ({exc.strerror or exc})") from None
+    try:
+        yield stage
+        if d.is_dir():
+            _carry_over(d, stage)
+        write_manifest(stage)
+        _swap(stage, d)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _carry_over(old: Path, new: Path) -> None:
+    for name in os.listdir(old):
+        if name in PARTS or name == MANIFEST or os.path.lexists(new / name):
+            continue
+        try:
+            os.link(old / name, new / name, follow_symlinks=False)
+        except OSError:
+            shutil.copy2(old / name, new / name, follow_symlinks=False)
+
+
+def _swap(stage: Path, d: Path) -> None:
+    """Two renames; between them only the backup holds the old model (see :func:`recover`)."""
+    backup = _backup(d)
+    if os.path.lexists(d):
+        os.rename(d, backup)
+    os.rename(stage, d)
+    shutil.rmtree(backup, ignore_errors=True)

@@ -132,11 +132,11 @@ def test_model_directory_loads_symbols_and_continuous_traces_when_present(learne
     model = tmp_path / "model"
     shutil.copytree(d / "model", model)
     names = ("x", "y", "z", "size")
-    save_symbols(model / "symbols.json", SymbolSet((Symbol("u1", 1, np.zeros(4), np.ones(4)),), names))
+    save_symbols(model / "symbols.json", SymbolSet((Symbol("clear", 1, np.zeros(4), np.ones(4)),), names))
     shutil.copy(DATA / "tower_small.json", model / "traces.json")
     m = load_model(model)
     assert "symbols" not in m.__dict__                     # lazy: nothing read yet
-    assert m.symbols.predicates == {"u1": 1}
+    assert m.symbols.predicates == {"clear": 1}   # a predicate of the rules (load_model checks)
     assert len(m.traces.traces) == 4 and m.rules.rules == load_model(d / "model").rules.rules
 
 

@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import UserError
+from ..fileio import output_target
 from ..sim import split_key_values
 
 
@@ -42,24 +43,25 @@ def sim_options(args: argparse.Namespace) -> dict[str, str]:
 
 
 def output_path(text: str) -> Path:
-    """argparse ``type=`` for an output file: a directory is refused as a usage error (exit 2)."""
-    p = Path(text)
-    if p.exists() and p.is_dir():
-        raise argparse.ArgumentTypeError(f"{p}: is a directory, expected a file path")
-    return p
+    """argparse ``type=`` for an output file: a directory, FIFO or device is refused as a usage error
+    (exit 2) before any work; a symbolic link is written through (fileio.output_target)."""
+    try:
+        output_target(text)
+    except UserError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return Path(text)
 
 
 def writable_output(text: str | Path) -> Path:
     """The path, once a file is known to be writable there, so a typo fails before minutes of work."""
     path = Path(text)
-    if path.is_dir():
-        raise UserError(f"{path}: is a directory, expected a file path")
+    target = output_target(path)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path.parent):
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=target.parent):
             pass
     except OSError as exc:
         raise UserError(f"{path}: cannot write ({exc.strerror or exc})") from None
-    if path.exists() and not os.access(path, os.W_OK):
+    if target.exists() and not os.access(target, os.W_OK):
         raise UserError(f"{path}: cannot write (the file is read-only)")
     return path

@@ -12,11 +12,12 @@ from pathlib import Path
 
 from ..anneal import AnnealConfig, anneal, default_workers
 from ..errors import UserError
-from ..fileio import file_sha256
+from ..fileio import file_sha256, output_target
+from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
 from ..loss import LossConfig, prepare
 from ..progress import Progress
 from ..provenance import provenance
-from ..sim import split_key_values
+from ..sim import split_key_values, warn_if_older_cell
 from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
 from ..symbols import SymbolSet, dataset_arrays, save_symbols, share_true
 from ..traces import SCHEMA as TRACES_SCHEMA, file_schema, read_traces
@@ -41,7 +42,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--restarts", type=positive_int, default=4, metavar="R", help="independent restarts (default 4)")
     p.add_argument("--workers", type=positive_int, default=None, metavar="W",
                    help="worker processes (default: the number of cores); the result does not depend on it")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
                    help="save the search state here after every round; an existing file is resumed")
     p.add_argument("--model-data", type=Path, default=None, metavar="FILE",
@@ -81,34 +82,64 @@ def loss_config(items: list[str]) -> LossConfig:
         raise UserError(f"--loss: {exc}") from None
 
 
-def run(args: argparse.Namespace) -> int:
+MAX_SYMBOLS = 64   # per arity: far beyond the paper's 1-3, small enough that memory is never the limit
+
+
+def check_options(args: argparse.Namespace) -> str:
+    """Every option and input is checked before any work, so nothing fails after minutes of search
+    with a half-written model. Returns the data's schema."""
     schema = file_schema(args.data)
-    out: Path = args.output
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: exists and is not a directory")
-    if schema == SYMBOLIC_SCHEMA:
-        sds = read_symbolic_traces(args.data)
-        _learn_rules(sds, out, args)
-        return 0
-    if schema != TRACES_SCHEMA:
+    if schema not in (TRACES_SCHEMA, SYMBOLIC_SCHEMA):
         raise UserError(f"{args.data}: schema: expected {TRACES_SCHEMA!r} or {SYMBOLIC_SCHEMA!r}, got {schema!r}")
-    symbols = learn_symbols(args)
-    model_path = args.model_data or args.data
-    model_ds = read_traces(model_path)
-    symbols.check_features(model_ds.feature_names, f"{model_path}: meta")
-    _learn_rules(symbols.to_symbolic_dataset(model_ds), out, args)
+    check_model_output(args.output)
+    if args.alpha is not None and not (math.isfinite(args.alpha) and args.alpha >= 0):
+        raise UserError(f"--alpha: must be a finite number of at least 0, got {args.alpha}")
+    if args.p_min is not None and not (math.isfinite(args.p_min) and 0 < args.p_min < 1):
+        raise UserError(f"--p-min: must be in (0, 1), got {args.p_min}")
+    if schema == SYMBOLIC_SCHEMA:
+        return schema
+    if args.unary + args.binary == 0:
+        raise UserError("--unary and --binary: need at least one symbol to learn")
+    for flag, k in (("--unary", args.unary), ("--binary", args.binary)):
+        if k > MAX_SYMBOLS:
+            raise UserError(f"{flag}: at most {MAX_SYMBOLS} symbols, got {k}")
+    if args.evals < args.restarts:
+        raise UserError(f"--evals: {args.evals} is less than one evaluation per restart ({args.restarts})")
+    loss_config(args.loss)
+    if args.checkpoint is not None:
+        output_target(args.checkpoint)
+    if args.model_data is not None:
+        file_schema(args.model_data)
+    return schema
+
+
+def run(args: argparse.Namespace) -> int:
+    schema = check_options(args)
+    out: Path = args.output
+    with model_transaction(out) as stage:
+        if schema == SYMBOLIC_SCHEMA:
+            sds = read_symbolic_traces(args.data)
+            warn_if_older_cell(sds.meta, str(args.data))
+            _learn_rules(sds, stage, args)
+            return 0
+        model_path = args.model_data or args.data
+        model_ds = read_traces(model_path) if args.model_data else None
+        if model_ds is not None:
+            warn_if_older_cell(model_ds.meta, str(model_path))
+        symbols = learn_symbols(args, stage)
+        model_ds = model_ds or read_traces(model_path)
+        symbols.check_features(model_ds.feature_names, f"{model_path}: meta")
+        _learn_rules(symbols.to_symbolic_dataset(model_ds), stage, args)
     return 0
 
 
-def learn_symbols(args: argparse.Namespace) -> SymbolSet:
-    """Anneal, prune, write ``symbols.json`` and the training traces into the model directory."""
+def learn_symbols(args: argparse.Namespace, out: Path) -> SymbolSet:
+    """Anneal, prune, write ``symbols.json`` and the training traces into ``out`` (the staging
+    folder of the model directory)."""
     ds = read_traces(args.data)
-    if args.unary + args.binary == 0:
-        raise UserError("--unary and --binary: need at least one symbol to learn")
+    warn_if_older_cell(ds.meta, str(args.data))
     loss_cfg = loss_config(args.loss)
     data = prepare(ds, loss_cfg, str(args.data))
-    if args.evals < args.restarts:
-        raise UserError(f"--evals: {args.evals} is less than one evaluation per restart ({args.restarts})")
     cfg = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
     sha = file_sha256(args.data)
     workers = min(args.workers or default_workers(), args.restarts)
@@ -132,23 +163,13 @@ def learn_symbols(args: argparse.Namespace) -> SymbolSet:
         "data": {"transitions": data.n_transitions, "objects": int(feats.shape[1])},
         "provenance": provenance(args.argv, seed=args.seed, data_sha256=sha),
     }
-    args.output.mkdir(parents=True, exist_ok=True)
-    save_symbols(args.output / "symbols.json", symbols, shares=share_true(symbols, feats, pairs), extra=extra)
-    traces_copy = args.output / "traces.json"
-    if Path(args.data).resolve() != traces_copy.resolve():
-        tmp = traces_copy.with_name(".traces.json.tmp")
-        shutil.copyfile(args.data, tmp)
-        tmp.replace(traces_copy)
+    save_symbols(out / "symbols.json", symbols, shares=share_true(symbols, feats, pairs), extra=extra)
+    shutil.copyfile(args.data, out / "traces.json")   # the staging folder: nobody sees it half-copied
     if not args.quiet:
         print(f"learn: {len(result.symbols)} symbols ({len(result.pruned)} pruned), {final}", file=sys.stderr)
     return symbols
 
 
 def _learn_rules(sds, out: Path, args: argparse.Namespace) -> None:
-    try:
-        from ..modeldir import learn_symbolic_model
-    except ImportError:  # the rules engine is optional in a partial install: symbols only
-        print("learn: groundsym.modeldir is not available; wrote symbols only", file=sys.stderr)
-        return
-    out.mkdir(parents=True, exist_ok=True)
-    learn_symbolic_model(sds, out, seed=args.seed, argv=args.argv, alpha=args.alpha, p_min=args.p_min)
+    learn_symbolic_model(sds, out, seed=args.seed, argv=args.argv, alpha=args.alpha, p_min=args.p_min,
+                         progress=not args.quiet)
