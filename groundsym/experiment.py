@@ -218,8 +218,35 @@ def unit_path(out: Path, n_symbol: int, run: int) -> Path:
     return out / "runs" / f"N{n_symbol}-run{run:03d}.json"
 
 
+def validate(cfg: EvalConfig) -> None:
+    """Every option a unit will use, checked before the results folder is touched: a refused
+    command must leave no config.json behind that would then refuse the corrected one."""
+    from .planner import parse_planner_options
+    from .registry import get_planner_class, get_sim_class
+    from .sim import parse_options
+
+    sim_cls = get_sim_class(cfg.sim)
+    parse_options(cfg.sim, sim_cls.OPTIONS, dict(cfg.sim_options))
+    truth = dict(getattr(sim_cls, "truth_predicates", {}) or {})
+    unknown = [p for p in cfg.truth_symbols if p not in truth]
+    if unknown:
+        raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
+                        f"({', '.join(sorted(truth))})")
+    for method in cfg.methods:
+        given = dict(cfg.planner_options.get(method, {}))
+        parse_planner_options(method, getattr(get_planner_class(method), "OPTIONS", ()), given)
+    for method in cfg.planner_options:
+        if method not in cfg.methods:
+            raise UserError(f"--planner-opt {method}:...: {method} is not among --methods")
+    if not cfg.truth_symbols:
+        cfg.anneal_config()
+
+
 def _check_config(out: Path, cfg: EvalConfig) -> None:
     """Resume only an evaluation with the same options; never mix two."""
+    validate(cfg)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: exists and is not a directory")
     path = out / "config.json"
     if path.exists():
         old = read_json(path)

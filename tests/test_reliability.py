@@ -184,3 +184,23 @@ def test_loading_refuses_parts_of_different_models(data, model, tmp_path, capsys
     (mixed / "reward.json").write_text(json.dumps(reward))
     with pytest.raises(UserError, match="predicates.tower: not a predicate of"):
         load_model(mixed)
+
+
+# ----------------------------------------------------------------------------- evaluate
+@pytest.mark.parametrize("bad, message", [
+    (["--truth-symbols", "nosuch"], "--truth-symbols: nosuch not among"),
+    (["--planner-opt", "prada:samples=x"], "--planner-opt samples=x"),
+    (["--planner-opt", "prada:bogus=1"], "unknown option for planner 'prada'"),
+    (["--unary", "0", "--binary", "0"], "need at least one symbol"),
+])
+def test_evaluate_validates_before_writing_config(tmp_path, capsys, bad, message):
+    from groundsym import experiment
+
+    out = tmp_path / "E"
+    assert main(["evaluate", "--sim", "tower", "--runs", "1", "--quiet", "-o", str(out), *bad]) == 2
+    one_line_error(capsys, message)
+    assert not out.exists()
+    # the corrected options are accepted by the same folder (nothing was left to refuse them)
+    good = experiment.EvalConfig(sim="tower", methods=("random",), symbol_data=(20,), model_traces=(1,))
+    experiment._check_config(out, good)
+    assert json.loads((out / "config.json").read_text())["fingerprint"] == good.fingerprint()
