@@ -62,6 +62,25 @@ def collect(path: Path, traces: int, seed: int, sim_opt: list[str]) -> None:
         "-o", str(path), "--quiet"])
 
 
+def summary(rows: list[dict], want: list[str], good: float) -> str:
+    """In how many seeds each wanted relation is grounded (a symbol matching it with F1 >= ``good``,
+    or a unary symbol whose negation matches it with F1 >= 0.9), and all of them together."""
+    from groundsym.grounding import grounded
+
+    hits = {w: 0 for w in want}
+    every = 0
+    for r in rows:
+        got: set[str] = set()
+        for m in r["symbols"]:
+            got |= set(grounded(m, good))
+        ok = {w: any(alt in got for alt in w.split("|")) for w in want}
+        for w in want:
+            hits[w] += ok[w]
+        every += all(ok.values())
+    parts = [f"{w} in {hits[w]} of {len(rows)}" for w in want]
+    return f"grounded (F1 >= {good}; a negation at >= 0.9): " + ", ".join(parts) + f"; all in {every} of {len(rows)}"
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True)
@@ -75,6 +94,9 @@ def main() -> int:
     ap.add_argument("--unary", type=int, default=1)
     ap.add_argument("--binary", type=int, default=1)
     ap.add_argument("--sim-opt", action="append", default=[])
+    ap.add_argument("--want", nargs="+", default=["inhand", "on|above"],
+                    help="relations every run should ground ('a|b': either); counted per seed")
+    ap.add_argument("--good", type=float, default=0.8, help="F1 at which a symbol grounds a relation")
     args = ap.parse_args()
     data = args.data or args.out / "data"
     data.mkdir(parents=True, exist_ok=True)
@@ -101,12 +123,17 @@ def main() -> int:
     report = {"evals": args.evals, "restarts": args.restarts, "unary": args.unary, "binary": args.binary,
               "sim_opt": args.sim_opt, "train_traces": args.train_traces, "test_traces": args.test_traces,
               "runs": rows}
-    atomic_write_json(args.out / "report.json", report)
-    lines = ["| seed | loss | symbol | best match | order | precision | recall | F1 |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| seed | loss | symbol | best match | order | precision | recall | F1 | negation ~ | F1 |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         for m in r["symbols"]:
+            neg = m.get("negation_match")
             lines.append(f"| {r['seed']} | {r['loss']:.1f} | {m['symbol']} | {m['best_match']} | {m['argument_order']} "
-                         f"| {m['precision']:.3f} | {m['recall']:.3f} | {m['f1']:.3f} |")
+                         f"| {m['precision']:.3f} | {m['recall']:.3f} | {m['f1']:.3f} "
+                         f"| {neg or ''} | {'' if neg is None else format(m['negation_f1'], '.3f')} |")
+    lines += ["", summary(rows, args.want, args.good)]
+    report["summary"] = lines[-1]
+    atomic_write_json(args.out / "report.json", report)
     text = "\n".join(lines) + "\n"
     atomic_write_text(args.out / "report.md", text)
     print(text)

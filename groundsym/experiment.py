@@ -32,6 +32,7 @@ import numpy as np
 
 from .errors import UserError
 from .fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json
+from .grounding import grounded
 from .progress import Progress
 
 RESULTS_SCHEMA = "groundsym.results/1"
@@ -336,7 +337,8 @@ def aggregate(out: Path, cfg: EvalConfig, runs: int, optimum: float | None,
     return {"schema": RESULTS_SCHEMA, "methods": rows, "optimum": optimum, "meta": meta}
 
 
-GOOD_F1 = 0.8   # a relation counts as found in a run when some symbol matches it with at least this F1
+GOOD_F1 = 0.8   # a relation counts as found in a run when some symbol grounds it with at least this F1
+                # (a unary symbol's negation: at least grounding.NEGATION_F1)
 
 
 def _grounding_summary(grounding: Mapping[int, list[Any]]) -> dict[str, Any]:
@@ -348,14 +350,15 @@ def _grounding_summary(grounding: Mapping[int, list[Any]]) -> dict[str, Any]:
         f1s: dict[str, list[float]] = {}
         found: dict[str, int] = {}
         for rep in reports:
-            best: dict[str, float] = {}
+            got: set[str] = set()
             for r in rep:
                 f1s.setdefault(f"{r.get('symbol')}~{r.get('best_match')}", []).append(float(r.get("f1", 0.0)))
-                rel = r.get("best_match")
-                if rel is not None:
-                    best[rel] = max(best.get(rel, 0.0), float(r.get("f1", 0.0)))
-            for rel, f in best.items():
-                found[rel] = found.get(rel, 0) + (f >= GOOD_F1)
+                got |= set(grounded(r, GOOD_F1))
+                for rel in (r.get("best_match"), r.get("negation_match")):
+                    if rel is not None:
+                        found.setdefault(rel, 0)
+            for rel in got:
+                found[rel] += 1
         out[str(N)] = {"runs": len(reports),
                        "matches": {k: {"runs": len(v), "mean_f1": float(np.mean(v))} for k, v in sorted(f1s.items())},
                        "found": dict(sorted(found.items()))}

@@ -5,13 +5,15 @@ scored over all their scenes: unary symbols over (scene, object), binary ones ov
 pair of distinct objects), in both argument orders, since a binary symbol may learn a relation with
 its arguments swapped ("under" for "on"). The best match by F1 is reported with its precision and
 recall, and, for a unary symbol whose negation matches some relation better (it learned "not in
-the hand"), that relation too.
+the hand"), that relation too. A unary symbol grounds a relation when it matches it, or when its
+negation matches it with F1 >= :data:`NEGATION_F1` (:func:`grounded`): "not in the hand" is as
+good a symbol for planning as "in the hand", since the rules and the reward can use either.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -32,9 +34,9 @@ class Match:
     recall: float
     f1: float
     # unary symbols: the relation the symbol's negation matches best, when that beats ``f1`` (a
-    # symbol may learn "not in the hand"); shown in words, not part of the JSON document
+    # symbol may learn "not in the hand"); None otherwise
     negation_of: str | None = None
-    negation_f1: float = 0.0
+    negation_f1: float | None = None
 
     def __str__(self) -> str:
         if self.best_match is None:
@@ -49,7 +51,23 @@ class Match:
     def to_doc(self) -> dict[str, Any]:
         return {"symbol": self.symbol, "arity": self.arity, "best_match": self.best_match,
                 "argument_order": self.argument_order, "precision": self.precision, "recall": self.recall,
-                "f1": self.f1}
+                "f1": self.f1, "negation_match": self.negation_of, "negation_f1": self.negation_f1}
+
+
+NEGATION_F1 = 0.9   # a unary symbol whose negation matches a relation this well grounds that relation
+
+
+def grounded(doc: Mapping[str, Any], good: float) -> dict[str, float]:
+    """The relations one symbol's match document (:meth:`Match.to_doc`) grounds, with the F1 of
+    each: its best match when ``f1 >= good``, and the relation its negation matches when
+    ``negation_f1 >= max(good, NEGATION_F1)``."""
+    out: dict[str, float] = {}
+    if doc.get("best_match") is not None and float(doc.get("f1") or 0.0) >= good:
+        out[doc["best_match"]] = float(doc["f1"])
+    neg, f = doc.get("negation_match"), doc.get("negation_f1")
+    if neg is not None and f is not None and float(f) >= max(good, NEGATION_F1):
+        out[neg] = max(out.get(neg, 0.0), float(f))
+    return out
 
 
 def truth_arrays(ds: Dataset) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:

@@ -63,19 +63,23 @@ def test_resume_from_finished_runs_gives_the_same_table(tmp_path):
 
 
 def test_grounding_summary_counts_runs_that_found_each_relation(tmp_path):
-    """By hand: run 0 learned inhand (F1 0.95) and on (0.85); run 1 inhand (0.7) and above (0.9)."""
+    """By hand: run 0 learned inhand (F1 0.95) and on (0.85); run 1 inhand (0.7) and above (0.9);
+    run 2 "not in the hand" (best match ontable 0.6, its negation inhand 0.92) and on (0.5)."""
     cfg = EvalConfig(sim="tower", methods=("random",), symbol_data=(40,), model_traces=(3,))
-    reports = [[("u1", "inhand", 0.95), ("b1", "on", 0.85)], [("u1", "inhand", 0.7), ("b1", "above", 0.9)]]
+    reports = [[("u1", "inhand", 0.95, None, None), ("b1", "on", 0.85, None, None)],
+               [("u1", "inhand", 0.7, None, None), ("b1", "above", 0.9, None, None)],
+               [("u1", "ontable", 0.6, "inhand", 0.92), ("b1", "on", 0.5, None, None)]]
     for run, rep in enumerate(reports):
         write_unit(tmp_path, cfg, 40, run, {(3, "random"): 0.01})
         doc = json.loads(unit_path(tmp_path, 40, run).read_text())
-        doc["report"] = {"grounding": [{"symbol": s, "best_match": m, "f1": f} for s, m, f in rep]}
+        doc["report"] = {"grounding": [{"symbol": s, "best_match": m, "f1": f, "negation_match": n,
+                                        "negation_f1": nf} for s, m, f, n, nf in rep]}
         unit_path(tmp_path, 40, run).write_text(json.dumps(doc))
-    res = aggregate(tmp_path, cfg, 2, optimum=None, provenance=None)
+    res = aggregate(tmp_path, cfg, 3, optimum=None, provenance=None)
     g = res["meta"]["grounding"]["40"]
-    assert g["runs"] == 2 and g["found"] == {"above": 1, "inhand": 1, "on": 1}
+    assert g["runs"] == 3 and g["found"] == {"above": 1, "inhand": 2, "on": 1, "ontable": 0}
     assert g["matches"]["u1~inhand"] == {"runs": 2, "mean_f1": pytest.approx(0.825)}
-    assert "| 40 | 2 | 1 | 1 | 1 |" in markdown_table(res)
+    assert "| 40 | 3 | 1 | 2 | 1 | 0 |" in markdown_table(res)
 
 
 def test_fingerprint_covers_the_search_and_loss_settings(tmp_path, capsys):

@@ -63,7 +63,9 @@ def test_show_json_against_truth(traces, tmp_path, capsys):
     by = {d["symbol"]: d for d in doc["symbols"]}
     assert by["u1"]["best_match"] == "inhand" and by["u1"]["f1"] == 1.0
     assert (by["b1"]["best_match"], by["b1"]["argument_order"], by["b1"]["f1"]) == ("on", "swapped", 1.0)
-    assert set(by["b1"]) == {"symbol", "arity", "best_match", "argument_order", "precision", "recall", "f1"}
+    assert set(by["b1"]) == {"symbol", "arity", "best_match", "argument_order", "precision", "recall", "f1",
+                             "negation_match", "negation_f1"}
+    assert by["b1"]["negation_match"] is None and by["u1"]["negation_f1"] is None
 
 
 def test_show_words_and_plot(traces, tmp_path, capsys):

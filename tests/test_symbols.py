@@ -9,7 +9,7 @@ import pytest
 
 from groundsym.describe import deciding_dimensions, describe_symbol, intervals
 from groundsym.errors import UserError
-from groundsym.grounding import match_symbols, scores
+from groundsym.grounding import grounded, match_symbols, scores
 from groundsym.logic import Atom
 from groundsym.symbols import Symbol, SymbolSet, load_symbols, save_symbols, share_true
 from groundsym.traces import Dataset, Trace
@@ -185,6 +185,17 @@ def test_grounding_names_the_relation_a_negated_symbol_matches():
     m = match_symbols(SymbolSet((not_held,), NAMES), ds)[0]
     assert m.f1 == 0.0 and (m.negation_of, m.negation_f1) == ("inhand", 1.0)
     assert "its negation ~ inhand: F1 1.000" in str(m)
-    assert set(m.to_doc()) == {"symbol", "arity", "best_match", "argument_order", "precision", "recall", "f1"}
+    doc = m.to_doc()
+    assert (doc["negation_match"], doc["negation_f1"]) == ("inhand", 1.0)
+    assert grounded(doc, 0.8) == {"inhand": 1.0}        # the negation grounds inhand
     held = match_symbols(SymbolSet(tuple(intended_symbols()[:1]), NAMES), ds)[0]
     assert held.best_match == "inhand" and held.negation_of is None
+    assert (held.to_doc()["negation_match"], held.to_doc()["negation_f1"]) == (None, None)
+    assert grounded(held.to_doc(), 0.8) == {"inhand": 1.0}
+
+
+def test_a_negation_grounds_a_relation_only_at_f1_0_9():
+    doc = {"best_match": "ontable", "f1": 0.5, "negation_match": "inhand", "negation_f1": 0.85}
+    assert grounded(doc, 0.8) == {}
+    assert grounded({**doc, "negation_f1": 0.9}, 0.8) == {"inhand": 0.9}
+    assert grounded({**doc, "f1": 0.8}, 0.8) == {"ontable": 0.8}
