@@ -14,7 +14,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .progress import Progress
-from .sim import Sim
+from .sim import Sim, cell_meta
 from .traces import Dataset, Trace
 
 
@@ -49,6 +49,7 @@ def collect_traces(sim: Sim, n_traces: int, length: int, seed: int, progress: bo
         raise ValueError("need at least one trace of at least one primitive")
     bar = Progress(n_traces * length, f"collect {sim.name}", enabled=progress)
     traces: list[Trace] = []
+    events_before = dict(getattr(sim, "events", {}))
 
     def tick() -> None:
         bar.update(bar.done + 1, f"trace {len(traces) + 1}/{n_traces}")
@@ -57,6 +58,8 @@ def collect_traces(sim: Sim, n_traces: int, length: int, seed: int, progress: bo
         traces.append(collect_trace(sim, length, reset_seed, rng, tick))
     bar.close()
     info = {"sim": sim.name, "options": dict(getattr(sim, "options", {})), "seed": seed,
-            "traces": n_traces, "length": length}
+            "traces": n_traces, "length": length, **cell_meta(sim)}
+    if hasattr(sim, "events"):     # what the sim's controller met while collecting (counts), if it keeps any
+        info["events"] = {k: int(v) - int(events_before.get(k, 0)) for k, v in sorted(sim.events.items())}
     info.update(meta or {})
     return Dataset(traces, tuple(sim.feature_names), dict(sim.primitives), info)

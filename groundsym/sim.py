@@ -8,6 +8,7 @@ own through the ``groundsym.sims`` entry-point group.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Mapping, Protocol, runtime_checkable
@@ -103,3 +104,29 @@ class Sim(Protocol):
 
     def close(self) -> None:
         """Release the physics engine."""
+
+
+def cell_meta(sim: Any) -> dict[str, Any]:
+    """What a traces file records about the cell beyond its options: the version of the cell's
+    physics and controller (``CELL_VERSION``, when the sim declares one)."""
+    version = getattr(sim, "CELL_VERSION", None)
+    return {} if version is None else {"cell_version": int(version)}
+
+
+def warn_if_older_cell(meta: Mapping[str, Any], where: str) -> bool:
+    """One warning line on stderr when ``meta`` (of traces, a model or results) was made by an
+    older version of its sim's cell than the one installed; a file without ``cell_version`` comes
+    from version 1. Returns whether it warned."""
+    from .registry import get_sim_class
+
+    name = meta.get("sim")
+    try:
+        current = getattr(get_sim_class(str(name)), "CELL_VERSION", None) if name else None
+    except UserError:                                # a sim that is not installed: nothing to compare
+        return False
+    made = meta.get("cell_version", 1)
+    if current is None or not isinstance(made, int) or made >= current:
+        return False
+    print(f"warning: {where}: made by {name} cell version {made}, the installed cell is version {current} "
+          f"(its primitives changed; figures from this file may not hold for the current cell)", file=sys.stderr)
+    return True

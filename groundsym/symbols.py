@@ -137,7 +137,7 @@ class SymbolSet:
             states = [atoms_from_arrays(u[t], b[t], tr.objects, self.unary, self.binary) for t in range(len(feats))]
             rewards = [float(s.reward) for s in tr.scenes]
             traces.append(SymbolicTrace(tr.objects, states, list(tr.actions), rewards[:-1], rewards[-1]))
-        meta = {k: v for k, v in ds.meta.items() if k in ("sim", "options", "seed")}
+        meta = {k: v for k, v in ds.meta.items() if k in ("sim", "options", "seed", "cell_version")}
         return SymbolicDataset(traces, self.predicates, dict(ds.primitives), meta)
 
     def save_symbols(self, path: str | Path, **kwargs: Any) -> None:

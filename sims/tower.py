@@ -87,6 +87,8 @@ class TowerSim:
 
     name: ClassVar[str] = "tower"
     OPTIONS: ClassVar[tuple[SimOption, ...]] = OPTIONS
+    # 2: converged IK, straight Cartesian moves, rigid grasps, guards on every arm link (issue 13)
+    CELL_VERSION: ClassVar[int] = 2
     feature_names = ("x", "y", "z", "size")
     primitives = {"closeHandAround": 1, "openHandOver": 1}
     truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1}
@@ -134,6 +136,12 @@ class TowerSim:
         else:
             self.world.open_hand_over(index, offset)
         return self.scene()
+
+    @property
+    def events(self) -> dict[str, int]:
+        """What the arm's controller met so far (primitives, arm collisions, fingertips on top,
+        side contacts, IK failures, scenes read before they settled); ``collect`` records them."""
+        return dict(self.world.events)
 
     # ------------------------------------------------------------------ observation
 

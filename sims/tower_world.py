@@ -14,39 +14,13 @@ early exit as soon as the world has settled. See ``benchmarks/bench_sim.py``.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
-
-import os
-import sys
+from typing import Callable
 
 import numpy as np
 
-
-def _flush_c_stdout() -> None:
-    try:
-        import ctypes
-        ctypes.CDLL(None).fflush(None)
-    except (OSError, AttributeError):  # pragma: no cover - no C library to flush
-        pass
-
-
-def _import_quietly():
-    """Import pybullet without its "build time" banner on stderr, where progress and errors go."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            import pybullet
-            import pybullet_data
-            _flush_c_stdout()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-    return pybullet, pybullet_data
-
-
-pb, pybullet_data = _import_quietly()
+from .tower_kinematics import TCP_LINK, ArmKinematics, IKError, Speed, pb, pybullet_data, trajectory
 
 TIME_STEP = 1.0 / 120.0
 SUB_STEPS = 4
@@ -56,13 +30,13 @@ ARM_JOINTS = tuple(range(7))
 FINGER_JOINTS = (9, 10)
 LEFT_FINGER, RIGHT_FINGER = 9, 10
 HAND_LINK = 8
-TCP_LINK = 11                      # panda_grasptarget: between the finger pads
+HAND_PARTS = (HAND_LINK, LEFT_FINGER, RIGHT_FINGER)
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
-ARM_MAX_VELOCITY = 2.5             # rad/s per joint in transit
-FINE_VELOCITY = 0.8                # rad/s per joint when descending among objects
+POSITION_GAIN = 0.2                # joint motors: position and velocity gains of the tracking law
+VELOCITY_GAIN = 1.0
 FINGER_OPEN = 0.04                 # per finger (pads 7.2 cm apart when open)
 FINGER_FORCE = 40.0
-HOME_Q = (0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785)
+HOME_Q = np.array([0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785])
 TIP_BELOW_TCP = 0.013             # fingertips reach this far below the TCP
 TRANSIT_CLEARANCE = 0.05           # TCP transit height above the highest object (plus what hangs below)
 RELEASE_GAP = 0.012                # gap between a released object's bottom and the target's top
@@ -70,14 +44,26 @@ PALM_HALF = (0.105, 0.035)         # half extents of the hand across (along the 
 TABLE_HALF = (0.45, 0.6, 0.02)     # table top at z = 0
 TABLE_CENTRE = (0.45, 0.0)
 FLOOR_Z = -0.62                    # the room's floor, out of the arm's reach
-DOWN = pb.getQuaternionFromEuler((np.pi, 0.0, 0.0))
+CONTACT_UP = 0.7                   # a contact normal with |z| above this is a touch from above
+ARM_CLEARANCE = 0.01               # m: wanted between the arm at a grasp or release pose and other objects
+MAX_YAW = 2.0                      # rad: hand yaws the wrist reaches from home with room to spare
+
+# Cartesian speed profiles (top speed m/s, acceleration m/s^2) and IK knot spacing (m)
+TRANSIT = Speed(1.5, 8.0)
+LIFT = Speed(0.6, 4.0)
+DESCENT = Speed(0.6, 4.0, slow=0.15, slow_for=0.04)      # the last 4 cm slow and guarded
+TRANSIT_KNOTS = 0.05
+FINE_KNOTS = 0.01
 
 # controller tolerances
-JOINT_TOL = 0.03                   # rad: a transit waypoint counts as reached
-FINE_TOL = 0.004                   # rad: a grasp or release pose counts as reached ...
-REST_SPEED = 0.05                  # rad/s: ... once every joint is this slow
+ARRIVE_TOL = 0.002                 # rad: a move ends once every joint is this close to its target ...
+REST_SPEED = 0.05                  # rad/s: ... and this slow
+ARRIVE_STEPS = 60                  # at most this many steps to arrive after the trajectory ends
 SETTLE_LIN = 0.01                  # m/s: the world is settled below these speeds
 SETTLE_ANG = 0.1                   # rad/s
+SETTLE_STEPS = 240                 # 2 s: a primitive reads the scene after this at the latest
+
+Guard = Callable[[], "str | None"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +86,9 @@ class TowerWorld:
         self.grasp: int | None = None      # constraint id of the stabilised grasp
         self.held: int | None = None       # index into bodies of the object in the grasp
         self.steps = 0                     # physics steps taken since the last build (benchmark)
+        self.kin = ArmKinematics()
+        self.events: Counter[str] = Counter()   # what the controller met, over the world's life
+        self.clearance: float | None = None     # when not None: the least transit clearance seen (m)
 
     # ------------------------------------------------------------------ building
 
@@ -133,7 +122,7 @@ class TowerWorld:
             pb.resetJointState(self.robot, j, q, physicsClientId=c)
         for j in FINGER_JOINTS:
             pb.resetJointState(self.robot, j, FINGER_OPEN, physicsClientId=c)
-        self._hold_arm(HOME_Q)
+        self._command(HOME_Q, np.zeros(7))
         self._set_fingers(FINGER_OPEN)
         self.bodies = [self._make_object(*p) for p in placements]
         self.grasp = self.held = None
@@ -162,6 +151,7 @@ class TowerWorld:
         if self.client >= 0:
             pb.disconnect(physicsClientId=self.client)
             self.client = -1
+        self.kin.close()
 
     def __del__(self) -> None:  # a forgotten close() must not leak physics servers
         try:
@@ -196,101 +186,183 @@ class TowerWorld:
             pb.stepSimulation(physicsClientId=self.client)
         self.steps += n
 
-    def _hold_arm(self, q: tuple[float, ...] | np.ndarray, speed: float = ARM_MAX_VELOCITY) -> None:
-        """Joint motor targets ``q``; joint speeds are scaled so that all joints arrive together,
-        which keeps short hand motions (a descent, a lift) close to straight lines."""
-        dq = np.abs(np.asarray(q) - self.arm_q())
-        scale = dq / max(float(dq.max()), 1e-9)
-        for j, qj in zip(ARM_JOINTS, q):
-            pb.setJointMotorControl2(self.robot, j, pb.POSITION_CONTROL, targetPosition=float(qj),
-                                     force=ARM_FORCES[j], positionGain=0.3,
-                                     maxVelocity=float(speed * scale[j] + 0.02), physicsClientId=self.client)
-
-    def _set_fingers(self, width: float) -> None:
-        for j in FINGER_JOINTS:
-            pb.setJointMotorControl2(self.robot, j, pb.POSITION_CONTROL, targetPosition=width,
-                                     force=FINGER_FORCE, maxVelocity=0.3, physicsClientId=self.client)
-
     def arm_q(self) -> np.ndarray:
         states = pb.getJointStates(self.robot, ARM_JOINTS, physicsClientId=self.client)
         return np.array([s[0] for s in states])
 
-    def ik(self, pos: np.ndarray, yaw: float) -> np.ndarray:
-        """Joint angles that put the TCP at ``pos`` with the hand pointing down, turned by ``yaw``."""
-        orn = pb.getQuaternionFromEuler((np.pi, 0.0, yaw))
-        lower = [-2.9, -1.76, -2.9, -3.07, -2.9, -0.02, -2.9]
-        upper = [2.9, 1.76, 2.9, -0.07, 2.9, 3.75, 2.9]
-        q = pb.calculateInverseKinematics(self.robot, TCP_LINK, list(pos), orn, lowerLimits=lower,
-                                          upperLimits=upper, jointRanges=[u - l for l, u in zip(lower, upper)],
-                                          restPoses=list(HOME_Q), maxNumIterations=60,
-                                          residualThreshold=1e-4, physicsClientId=self.client)
-        return np.array(q[:7])
-
-    def move(self, q: np.ndarray, speed: float = ARM_MAX_VELOCITY, tol: float = JOINT_TOL,
-             guard: set[int] | None = None, max_steps: int = 90) -> int | None:
-        """Drive the arm to joint angles ``q``; return the id of a guarded body touched first, if any.
-
-        With ``guard`` (body ids), the motion stops as soon as the hand or fingers touch one of them:
-        a guarded move, as a real arm does when it descends among objects.
-        """
-        self._hold_arm(q, speed)
-        for i in range(max_steps):
-            self.step()
-            if guard:
-                hit = self._hand_touches(guard)
-                if hit is not None:
-                    self._hold_arm(self.arm_q(), FINE_VELOCITY)
-                    return hit
-            if i % 3 == 2 and self._reached(q, tol):
-                break
-        return None
-
-    def _reached(self, q: np.ndarray, tol: float) -> bool:
-        """Within ``tol`` of ``q``; a fine pose must also be (almost) at rest, or a release throws."""
+    def _arm_speed(self) -> float:
         states = pb.getJointStates(self.robot, ARM_JOINTS, physicsClientId=self.client)
-        err = max(abs(s[0] - qj) for s, qj in zip(states, q))
-        if err >= tol:
-            return False
-        return tol >= JOINT_TOL or max(abs(s[1]) for s in states) < REST_SPEED
+        return max(abs(s[1]) for s in states)
 
-    def _hand_touches(self, guard: set[int]) -> int | None:
-        held = None if self.held is None else self.bodies[self.held].uid
-        for uid in sorted(guard):
-            if uid == held:
-                continue
-            for link in (HAND_LINK, LEFT_FINGER, RIGHT_FINGER):
-                if self.contacts(uid, self.robot, link):
-                    return uid
-            if held is not None and self.contacts(uid, held):
-                return uid
+    def _command(self, q: np.ndarray, qd: np.ndarray) -> None:
+        """Joint motor targets: position ``q`` with feed-forward velocity ``qd`` (tracking a path)."""
+        pb.setJointMotorControlArray(self.robot, ARM_JOINTS, pb.POSITION_CONTROL, targetPositions=list(q),
+                                     targetVelocities=list(qd), forces=ARM_FORCES,
+                                     positionGains=[POSITION_GAIN] * 7, velocityGains=[VELOCITY_GAIN] * 7,
+                                     physicsClientId=self.client)
+
+    def _set_fingers(self, width: float | tuple[float, float]) -> None:
+        widths = (width, width) if np.isscalar(width) else width
+        for j, w in zip(FINGER_JOINTS, widths):
+            pb.setJointMotorControl2(self.robot, j, pb.POSITION_CONTROL, targetPosition=float(w),
+                                     force=FINGER_FORCE, maxVelocity=0.3, physicsClientId=self.client)
+
+    def _finger_q(self) -> tuple[float, float]:
+        states = pb.getJointStates(self.robot, FINGER_JOINTS, physicsClientId=self.client)
+        return states[0][0], states[1][0]
+
+    # ------------------------------------------------------------------ moving the hand
+
+    def follow(self, q: np.ndarray, qd: np.ndarray, guard: Guard | None = None) -> str | None:
+        """Track the joint trajectory ``q`` (velocities ``qd``) step by step, then wait to arrive.
+
+        With a ``guard``, the motion stops the first step the guard names a reason (the arm holds
+        where it is) and the reason is returned.
+        """
+        watch = self.clearance is not None and guard is not None and guard.__name__ == "transit"
+        for k in range(len(q)):
+            self._command(q[k], qd[k])
+            self.step()
+            if watch:
+                self._watch_clearance()
+            hit = guard() if guard else None
+            if hit:
+                self._command(self.arm_q(), np.zeros(7))
+                return hit
+        self._command(q[-1], np.zeros(7))
+        for _ in range(ARRIVE_STEPS):
+            if np.abs(self.arm_q() - q[-1]).max() < ARRIVE_TOL and self._arm_speed() < REST_SPEED:
+                break
+            self.step()
+            hit = guard() if guard else None
+            if hit:
+                self._command(self.arm_q(), np.zeros(7))
+                return hit
         return None
+
+    def go(self, end: np.ndarray, yaw: float, speed: Speed, spacing: float,
+           guard: Guard | None = None) -> str | None:
+        """Move the TCP along a straight line from where it is to ``end`` (hand down, yaw turning
+        evenly to ``yaw``). Raises :class:`IKError` when a point of the line has no solution."""
+        knots, arc = self.kin.line(self.arm_q(), self.tcp(), np.asarray(end, dtype=float), self._hand_yaw(),
+                                   yaw, spacing)
+        return self.follow(*trajectory(knots, arc, speed, TIME_STEP), guard)
+
+    def go_home(self) -> None:
+        """Up to the transit height, along a straight line to above home, and into the home pose."""
+        here = self.tcp()
+        safe = self._safe_z(self._hang())
+        if here[2] < safe - 0.005:
+            self.go(np.array([here[0], here[1], safe]), self._hand_yaw(), LIFT, TRANSIT_KNOTS,
+                    self._guard_transit())
+        home_tcp, _ = self.kin.fk(HOME_Q)
+        self.go(home_tcp, 0.0, TRANSIT, TRANSIT_KNOTS, self._guard_transit())
+        q0 = self.arm_q()
+        arc = np.array([0.0, float(np.abs(HOME_Q - q0).max())])
+        self.follow(*trajectory(np.vstack([q0, HOME_Q]), arc, Speed(1.5, 6.0), TIME_STEP))
+
+    # ------------------------------------------------------------------ guards
+
+    def _touches(self, uid: int) -> list:
+        """Contacts of body ``uid`` with anything (gap under 2 mm): (other body, own link, normal z)."""
+        pts = pb.getContactPoints(bodyA=uid, physicsClientId=self.client)
+        return [(p[2], p[3], p[7][2]) for p in pts if p[8] < 0.002]
+
+    def _object_ids(self, *skip: int | None) -> set[int]:
+        return {b.uid for k, b in enumerate(self.bodies) if k not in skip}
+
+    def _guard_transit(self, *skip: int | None) -> Guard:
+        """Any arm link, or the held object, touching an object (other than ``skip``) stops the arm."""
+        others = self._object_ids(self.held, *skip)
+        held = None if self.held is None else self.bodies[self.held].uid
+
+        def transit() -> str | None:
+            hit = any(b in others for b, _, _ in self._touches(self.robot))
+            if not hit and held is not None:
+                hit = any(b in others for b, _, _ in self._touches(held))
+            return "arm" if hit else None
+
+        return transit
+
+    def _guard_grasp(self, index: int) -> Guard:
+        """The descent onto object ``index``: a hand part touching it from above stops the hand
+        (a fingertip on top); a touch on its side is part of a grasp; the fingers on the table
+        stop the hand there; any arm link touching another object stops the arm."""
+        target = self.bodies[index].uid
+        others = self._object_ids(index)
+        sided = [False]
+
+        def grasp() -> str | None:
+            for body, link, nz in self._touches(self.robot):
+                if body in others:
+                    return "arm"
+                if body == target:
+                    if link in HAND_PARTS and abs(nz) > CONTACT_UP:
+                        return "top"
+                    if not sided[0]:
+                        sided[0] = True
+                        self.events["side_contacts"] += 1
+                if body == self.table:
+                    return "table"
+            return None
+
+        return grasp
+
+    def _guard_release(self, index: int) -> Guard:
+        """The descent with the held object over ``index``: the held object (or the hand) touching
+        anything lets it go there; any arm link touching an object other than ``index`` stops."""
+        held = self.bodies[self.held].uid
+        target = self.bodies[index].uid
+        others = self._object_ids(index, self.held)
+
+        def release() -> str | None:
+            for body, _, _ in self._touches(self.robot):
+                if body in others:
+                    return "arm"
+                if body in (target, self.table):
+                    return "placed"
+            if any(body != self.robot for body, _, _ in self._touches(held)):
+                return "placed"
+            return None
+
+        return release
+
+    def _watch_clearance(self) -> None:
+        """Record the least distance between the arm (or held object) and any object not held."""
+        held = None if self.held is None else self.bodies[self.held].uid
+        for b in self.bodies:
+            if b.uid == held:
+                continue
+            for body in (self.robot, held):
+                if body is None:
+                    continue
+                pts = pb.getClosestPoints(body, b.uid, 0.05, physicsClientId=self.client)
+                if pts:
+                    self.clearance = min(self.clearance, min(p[8] for p in pts))
+
+    # ------------------------------------------------------------------ the hand
 
     def open_fingers(self, max_steps: int = 40) -> None:
         """Open the hand and wait until both fingers are (nearly) fully open."""
         self._set_fingers(FINGER_OPEN)
         for _ in range(max_steps):
             self.step()
-            states = pb.getJointStates(self.robot, FINGER_JOINTS, physicsClientId=self.client)
-            if min(st[0] for st in states) > FINGER_OPEN - 0.002:
+            if min(self._finger_q()) > FINGER_OPEN - 0.002:
                 return
 
-    def _close_on(self, index: int, steps: int = 30) -> None:
-        """Close the fingers; stabilise the grasp the moment both touch object ``index``, before
-        squeezing can tilt it."""
+    def _close_on(self, index: int, steps: int = 40) -> bool:
+        """Close the fingers; the moment both touch object ``index``, fix the grasp and hold the
+        fingers where they are, so they do not squeeze the held object against the fixed
+        constraint (squeezing turned it in the hand)."""
         self._set_fingers(0.0)
         for i in range(steps):
             self.step()
-            if self.held is None and i % 2 == 1 and self.attach(index):
-                self.step(4)
-                return
-
-    def _arm_rest(self, max_steps: int = 40) -> None:
-        """Let the arm come to rest where it stopped (after a guarded move halted it)."""
-        for _ in range(max_steps):
-            self.step()
-            states = pb.getJointStates(self.robot, ARM_JOINTS, physicsClientId=self.client)
-            if max(abs(s[1]) for s in states) < REST_SPEED:
-                return
+            if i % 2 == 1 and self.attach(index):
+                self._set_fingers(self._finger_q())
+                self.step(2)
+                return True
+        self._set_fingers(FINGER_OPEN)
+        return False
 
     def attach(self, index: int) -> bool:
         """Stabilise the grasp of object ``index`` with a fixed constraint if both fingers touch it."""
@@ -320,12 +392,14 @@ class TowerWorld:
                 return False
         return True
 
-    def settle(self, max_steps: int = 240, check_every: int = 4) -> None:
-        """Step until every object is (almost) at rest, at most ``max_steps`` steps."""
+    def settle(self, max_steps: int = SETTLE_STEPS, check_every: int = 4) -> bool:
+        """Step until every object is (almost) at rest, at most ``max_steps`` steps; say whether
+        it came to rest."""
         for i in range(0, max_steps, check_every):
             self.step(check_every)
             if self.settled():
-                return
+                return True
+        return False
 
     # ------------------------------------------------------------------ primitives
 
@@ -369,41 +443,37 @@ class TowerWorld:
             gap = float(np.min(along[in_swath] - PALM_HALF[0], initial=1.0))
             if gap > best_gap + 1e-9:
                 best, best_gap = yaw, gap
+        return float((best + np.pi / 2) % np.pi - np.pi / 2)    # the same grasp, turned least from home
+
+    def _clear_yaw(self, preferred: list[float], aim: np.ndarray, *skip: int | None) -> float:
+        """Of the hand yaws that grasp (or place) the same way, in order of preference, the first
+        whose arm pose at ``aim`` keeps ``ARM_CLEARANCE`` from every object but ``skip``, else
+        the clearest: the wrist and forearm swing with the yaw, and low next to a tall tower one
+        of them can touch its top. Checked on the kinematic copy with copies of the objects."""
+        pos, orn = self.poses()
+        self.kin.place([(b.shape, b.size, pos[k], orn[k]) for k, b in enumerate(self.bodies) if k not in skip])
+        best, best_gap = preferred[0], -np.inf
+        for yaw in preferred:
+            try:
+                q, _ = self.kin.solve(aim, yaw, HOME_Q)
+            except IKError:
+                continue
+            gap = self.kin.clearance(q)
+            if gap >= ARM_CLEARANCE:
+                return yaw
+            if gap > best_gap:
+                best, best_gap = yaw, gap
         return best
+
+    @staticmethod
+    def _turns(yaw: float) -> list[float]:
+        """``yaw`` and the same hand turned by a half and quarter turns, within the wrist's reach."""
+        out = [yaw + k * np.pi / 2 for k in (0, 2, -2, 1, -1)]
+        return [y for y in out if abs(y) <= MAX_YAW]
 
     def _hand_yaw(self) -> float:
         q = pb.getLinkState(self.robot, TCP_LINK, physicsClientId=self.client)[5]
         return float(pb.getEulerFromQuaternion(q)[2])
-
-    def close_hand_around(self, index: int, offset: np.ndarray) -> None:
-        """Move above object ``index`` (aim moved by ``offset``), descend, close, lift, go home.
-
-        The descent is guarded: if the hand touches another object (``index`` is covered, or a
-        neighbour is in the way) or the target itself from above, the grasp is abandoned and the
-        hand does not close. With something already in the hand it cannot close around another
-        object: the arm goes above it and back.
-        """
-        pos, _ = self.poses()
-        if self.held is not None:
-            if self.held != index:
-                yaw = self._hand_yaw()
-                self.move(self.ik(np.array([*pos[index, :2], self._safe_z(self._hang())]), yaw))
-            self.move(np.array(HOME_Q))
-            self.settle()
-            return
-        yaw = self._yaw_of(index)
-        aim = pos[index] + offset
-        aim[2] = max(aim[2], TIP_BELOW_TCP + 0.003)
-        safe = self._safe_z(TIP_BELOW_TCP)
-        self._set_fingers(FINGER_OPEN)
-        self.move(self.ik(np.array([aim[0], aim[1], safe]), yaw))
-        objects = {b.uid for b in self.bodies}
-        hit = self.move(self.ik(aim, yaw), FINE_VELOCITY, FINE_TOL, objects | {self.table}, 120)
-        if hit is None or hit == self.table:
-            self._close_on(index)
-        self.move(self.ik(np.array([aim[0], aim[1], safe]), yaw), FINE_VELOCITY)
-        self.move(np.array(HOME_Q))
-        self.settle()
 
     def _hang(self) -> float:
         """How far below the TCP the hand reaches: the fingertips, or the held object's bottom."""
@@ -413,38 +483,107 @@ class TowerWorld:
         z = pb.getBasePositionAndOrientation(b.uid, physicsClientId=self.client)[0][2]
         return max(TIP_BELOW_TCP, float(self.tcp()[2] - z + b.size / 2))
 
+    def _descend(self, aim: np.ndarray, yaw: float, guard: Guard) -> str | None:
+        """Straight down to ``aim``: quickly, then slowly over the last 4 cm, guarded."""
+        return self.go(aim, yaw, DESCENT, FINE_KNOTS, guard)
+
+    def _finish(self) -> None:
+        """Home, then wait for the world to settle (counted when it does not in time)."""
+        self.go_home()
+        if not self.settle():
+            self.events["unsettled"] += 1
+
+    def _primitive(self, run: Callable[[], None]) -> None:
+        """Run one primitive; one without an IK solution on its path goes home and is counted."""
+        self.events["primitives"] += 1
+        try:
+            run()
+        except IKError:
+            self.events["ik_failures"] += 1
+        try:
+            self._finish()
+        except IKError:                                  # pragma: no cover - home is always reachable
+            self.events["ik_failures"] += 1
+
+    def close_hand_around(self, index: int, offset: np.ndarray) -> None:
+        """Move above object ``index`` (aim moved by ``offset``), descend, close, lift, go home.
+
+        The descent is a straight vertical line, guarded: a hand part touching the target from
+        above (a fingertip on top) abandons the grasp; a finger brushing its side does not; an
+        arm link touching another object stops the arm (counted). If the fingertips touch the
+        table, the hand closes there. With something already in the hand it cannot close around
+        another object: the arm goes above it and back.
+        """
+        self._primitive(lambda: self._grasp(index, offset))
+
+    def _grasp(self, index: int, offset: np.ndarray) -> None:
+        pos, _ = self.poses()
+        if self.held is not None:
+            if self.held != index:
+                self._over(pos[index], self._hand_yaw(), self._safe_z(self._hang()))
+            return
+        aim = pos[index] + offset
+        aim[2] = max(aim[2], TIP_BELOW_TCP + 0.003)
+        yaw = self._clear_yaw(self._turns(self._yaw_of(index)), aim, index)
+        self._set_fingers(FINGER_OPEN)
+        if self._over(aim, yaw, self._safe_z(TIP_BELOW_TCP)):
+            return
+        hit = self._descend(aim, yaw, self._guard_grasp(index))
+        if hit == "arm":
+            self.events["arm_collisions"] += 1
+            return
+        if hit == "top":
+            self.events["top_contacts"] += 1
+        elif self._close_on(index):
+            self.go(np.array([aim[0], aim[1], self._safe_z(self._hang())]), yaw, LIFT, FINE_KNOTS,
+                    self._guard_transit(index))
+
+    def _over(self, point: np.ndarray, yaw: float, z: float) -> bool:
+        """Transit to above ``point`` at height ``z``; True when an arm collision stopped it."""
+        if self.go(np.array([point[0], point[1], z]), yaw, TRANSIT, TRANSIT_KNOTS, self._guard_transit()):
+            self.events["arm_collisions"] += 1
+            return True
+        return False
+
     def open_hand_over(self, index: int, offset: np.ndarray) -> None:
         """Move what is held over object ``index`` (aim moved by ``offset``), open, go home.
 
-        The held object is brought to a small gap above the top of ``index`` and let go, so it
-        drops onto it and may fall off. Over the held object itself the hand opens where it is.
-        With an empty hand only the arm moves.
+        The held object is brought straight down to a small gap above the top of ``index`` and
+        let go, so it drops onto it and may fall off; if it touches anything on the way, the hand
+        lets go there. Over the held object itself the hand opens where it is. With an empty hand
+        only the arm moves.
         """
+        self._primitive(lambda: self._place(index, offset))
+
+    def _place(self, index: int, offset: np.ndarray) -> None:
         if self.held == index:
             self.open_fingers()
             self.release()
-            self.settle()
             return
         pos, _ = self.poses()
         top = self.tops()[index]
-        yaw = self._hand_yaw()
+        here = self._hand_yaw()
+        shift = np.zeros(3)                        # the TCP's offset from the held object's centre
         if self.held is None:
             aim = np.array([pos[index, 0], pos[index, 1], top + TIP_BELOW_TCP + RELEASE_GAP]) + offset
             hang = TIP_BELOW_TCP
         else:
-            held_pos = self.poses()[0][self.held]
-            shift = self.tcp() - held_pos          # keep the held object's centre over the target
-            half = self.bodies[self.held].size / 2
-            aim = np.array([pos[index, 0], pos[index, 1], top + half + RELEASE_GAP]) + offset + shift
+            shift = self.tcp() - pos[self.held]
+            aim = np.array([pos[index, 0], pos[index, 1], top + self.bodies[self.held].size / 2 + RELEASE_GAP]) + offset
             hang = self._hang()
         aim[2] = max(aim[2], hang + 0.003)
-        safe = max(self._safe_z(hang), aim[2] + 0.02)
-        self.move(self.ik(np.array([aim[0], aim[1], safe]), yaw))
-        others = {b.uid for k, b in enumerate(self.bodies) if k != self.held}
-        if self.move(self.ik(aim, yaw), FINE_VELOCITY, FINE_TOL, others, 120) is not None:
-            self._arm_rest()
+        yaw = self._clear_yaw(self._turns(here), aim + shift, index, self.held)
+        c, s = np.cos(yaw - here), np.sin(yaw - here)   # the offset turns with the hand
+        aim += np.array([c * shift[0] - s * shift[1], s * shift[0] + c * shift[1], shift[2]])
+        if self._over(aim, yaw, max(self._safe_z(hang), aim[2] + 0.02)):
+            return
+        if self.held is None:
+            return
+        released = self.held
+        if self._descend(aim, yaw, self._guard_release(index)) == "arm":
+            self.events["arm_collisions"] += 1
         self.open_fingers()                    # the grasp constraint still holds it: a clean release
         self.release()
-        self.move(self.ik(np.array([aim[0], aim[1], safe]), yaw), FINE_VELOCITY)
-        self.move(np.array(HOME_Q))
-        self.settle()
+        here = self.tcp()
+        self.go(np.array([here[0], here[1], self._safe_z(TIP_BELOW_TCP)]), yaw, LIFT, FINE_KNOTS,
+                self._guard_transit(index, released))

@@ -13,8 +13,9 @@ from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.traces import read_traces
 from sims.tower import GAMMA, MIN_GAP, REGION_X, REGION_Y, TowerSim, optimal_episode_value
+from sims.tower_kinematics import ArmKinematics, down
 from sims.tower_optimum import best_plan, ground_plan
-from sims.tower_world import pb
+from sims.tower_world import HOME_Q, TCP_LINK, TIP_BELOW_TCP, TowerWorld, pb
 
 from conftest import DATA
 
@@ -166,6 +167,117 @@ def test_committed_traces_regenerate_bit_for_bit():
         assert np.array_equal(x.features, y.features) and x.truth == y.truth and x.reward == y.reward
 
 
+# ---------------------------------------------------------------------- the arm's controller
+
+def test_ik_converges_over_the_start_region_and_every_grasp_and_release_height():
+    """Solved from home, every TCP target over a grid of the start region, at the grasp height of
+    each cube size and the release height over towers of up to 6 cubes, with the two hand yaws of
+    a grasp, lands within 0.5 mm: checked by forward kinematics on the simulated arm itself (set by
+    resetJointState in an empty world), not by the solver's own copy."""
+    kin, world = ArmKinematics(), TowerWorld()
+    world.build([])
+    heights = [0.02, 0.025] + [TIP_BELOW_TCP + 0.012 + k * 0.05 + 0.025 for k in range(1, 7)]
+    worst = 0.0
+    try:
+        for x in np.linspace(REGION_X[0], REGION_X[1], 4):
+            for y in np.linspace(REGION_Y[0], REGION_Y[1], 4):
+                for z in heights:
+                    for yaw in (-np.pi / 4 - 0.3, 0.0, np.pi / 4 + 0.3):
+                        target = np.array([x, y, z])
+                        q, _ = kin.solve(target, yaw, HOME_Q)
+                        for j, qj in enumerate(q):
+                            pb.resetJointState(world.robot, j, qj, physicsClientId=world.client)
+                        state = pb.getLinkState(world.robot, TCP_LINK, computeForwardKinematics=1,
+                                                physicsClientId=world.client)
+                        worst = max(worst, float(np.linalg.norm(np.array(state[4]) - target)))
+                        assert abs(float(np.dot(state[5], down(yaw)))) > 1 - 1e-5   # hand down, turned by yaw
+    finally:
+        kin.close()
+        world.close()
+    assert worst < 0.0005
+
+
+@pytest.fixture()
+def tcp_lines(monkeypatch):
+    """Every straight TCP move of the controller: (guard name, commanded start, end, TCP per step)."""
+    lines = []
+    go = TowerWorld.go
+
+    def recording_go(self, end, yaw, speed, spacing, guard=None):
+        start, path = self.tcp(), []
+        step = self.step
+
+        def step_and_record(n=1):
+            step(n)
+            path.append(self.tcp())
+        self.step = step_and_record
+        try:
+            return go(self, end, yaw, speed, spacing, guard)
+        finally:
+            del self.step
+            lines.append((getattr(guard, "__name__", None), start, np.asarray(end, float), np.array(path)))
+
+    monkeypatch.setattr(TowerWorld, "go", recording_go)
+    return lines
+
+
+def off_line(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Distance of each point from the segment start-end."""
+    d = end - start
+    t = np.clip((points - start) @ d / max(float(d @ d), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(points - (start + t[:, None] * d), axis=1)
+
+
+def test_descents_and_lifts_are_straight_vertical_lines(exact, tcp_lines):
+    """Grasp, place: in the last 4 cm of every descent the TCP stays within 1 mm of the vertical
+    through its aim; lifts and transits stay within a few millimetres of their lines."""
+    exact.reset(2)
+    big, small = cubes_by_size(exact)
+    exact.step(A("closeHandAround", small[0]))
+    exact.step(A("openHandOver", big[0]))
+    descents = [ln for ln in tcp_lines if ln[0] in ("grasp", "release")]
+    assert len(descents) == 2
+    for _, start, end, path in descents:
+        assert np.allclose(start[:2], end[:2], atol=1e-4) and start[2] > end[2] + 0.03
+        last = path[path[:, 2] < end[2] + 0.04]
+        assert len(last) > 10
+        assert np.linalg.norm(last[:, :2] - end[:2], axis=1).max() < 0.001
+    for name, start, end, path in tcp_lines:
+        assert off_line(path, start, end).max() < 0.003, name
+
+
+def test_a_finger_brushing_the_target_side_is_part_of_the_grasp(exact):
+    """Aimed 1.3 cm off along the finger axis, a finger slides down the side of the big cube (the
+    open fingers clear it by 1.4 cm per side): the grasp goes on and holds the cube (the old
+    controller stopped at the first touch)."""
+    exact.reset(5)
+    big, _ = cubes_by_size(exact)
+    w, i = exact.world, exact.objects.index(big[0])
+    yaw = w._yaw_of(i)
+    before = w.events["side_contacts"]
+    w.close_hand_around(i, np.array([-np.sin(yaw), np.cos(yaw), 0.0]) * 0.0132)
+    assert w.held == i and A("inhand", big[0]) in exact.scene().truth
+    assert w.events["side_contacts"] == before + 1
+
+
+def test_an_arm_link_touching_another_object_stops_the_motion(exact, monkeypatch):
+    """A grasp of cube a aimed 2 cm beside the centre of cube b (motor noise as large as their
+    distance), with the yaw choice that keeps the arm clear switched off: a finger meets b's top,
+    the arm stops, nothing is grasped, b is not pushed, and the collision is counted."""
+    monkeypatch.setattr(TowerWorld, "_clear_yaw", lambda self, preferred, aim, *skip: preferred[0])
+    s = exact.reset(3)
+    w = exact.world
+    a, b = 0, 1
+    yaw = w._yaw_of(a)
+    before = w.events["arm_collisions"]
+    beside = np.array([-np.sin(yaw), np.cos(yaw), 0.0]) * 0.02
+    w.close_hand_around(a, s.features[b, :3] - s.features[a, :3] + beside)
+    after = exact.scene()
+    assert w.held is None and w.events["arm_collisions"] == before + 1
+    np.testing.assert_allclose(after.features[b, :3], s.features[b, :3], atol=0.002)
+    assert A("ontable", "o2") in after.truth
+
+
 # ---------------------------------------------------------------------- the optimum
 
 def brute_force_value(sizes: list[float], gamma: float, length: int) -> float:
@@ -210,6 +322,28 @@ def test_optimum_by_hand_two_cubes():
     assert optimal_episode_value({"cubes": 2, "big": 1}) == pytest.approx(want, abs=1e-12)
 
 
+def test_a_hand_yaw_that_keeps_the_arm_clear_of_a_tall_tower(exact):
+    """Seed 0's optimal plan builds a 5-cube tower, then grasps a cube beside it: at the grasp
+    planner's yaw the wrist meets the tower's top (checked on the kinematic copy), so the hand
+    turns, and the grasp succeeds without touching the tower."""
+    exact.reset(0)
+    plan = best_plan(exact.options, GAMMA, 10)
+    sizes = {o: size for o, (shape, size) in zip(exact.objects, exact.kinds) if shape == "cube"}
+    steps = list(ground_plan(plan, sizes))
+    for prim, obj in steps[:8]:
+        exact.step(A(prim, obj))
+    w, target = exact.world, exact.objects.index(steps[8][1])
+    aim = exact.scene().features[target, :3]
+    w.kin.place([(b.shape, b.size, *[p[k] for p in w.poses()]) for k, b in enumerate(w.bodies) if k != target])
+    first = w._turns(w._yaw_of(target))[0]
+    assert w.kin.clearance(w.kin.solve(aim, first, HOME_Q)[0]) < 0.005
+    chosen = w._clear_yaw(w._turns(w._yaw_of(target)), aim, target)
+    assert chosen != first and w.kin.clearance(w.kin.solve(aim, chosen, HOME_Q)[0]) >= 0.01
+    before = w.events["arm_collisions"]
+    s = exact.step(A(*steps[8]))
+    assert A("inhand", steps[8][1]) in s.truth and w.events["arm_collisions"] == before
+
+
 def test_optimal_plan_replays_in_physics(exact):
     """The search's plan, run by the arm in the noise-free cell, earns the value it promised."""
     exact.reset(0)
@@ -250,6 +384,41 @@ def test_stacking_succeeds_in_most_trials_at_default_noise():
 
 
 @pytest.mark.slow
+def test_a_held_cube_keeps_its_pose_in_the_hand():
+    """Over 100 pick-and-places at the default noise, the held cube's rotation in the hand's frame
+    between the grasp and the release: 95th percentile under 2 deg, maximum under 5 deg."""
+    angles = []
+    with TowerSim() as sim:
+        w = sim.world
+
+        def in_hand() -> np.ndarray:
+            hp, hq = pb.getLinkState(w.robot, TCP_LINK, physicsClientId=w.client)[4:6]
+            op, oq = pb.getBasePositionAndOrientation(w.bodies[w.held].uid, physicsClientId=w.client)
+            inv = pb.invertTransform(hp, hq)
+            return np.array(pb.multiplyTransforms(*inv, op, oq)[1])
+
+        for seed in range(100):
+            sim.reset(seed)
+            a, b = any_two_cubes(sim, seed)
+            sim.step(A("closeHandAround", a))
+            if w.held is None:
+                continue
+            grasped = in_hand()
+            release = w.release
+
+            def measured_release():
+                angles.append(np.degrees(2 * np.arccos(min(1.0, abs(float(in_hand() @ grasped))))))
+                release()
+            w.release = measured_release
+            sim.step(A("openHandOver", b))
+            del w.release
+    angles = np.array(angles)
+    print(f"in-hand rotation over {len(angles)} grasps: median {np.median(angles):.3f}, "
+          f"95th percentile {np.percentile(angles, 95):.3f}, max {angles.max():.3f} deg")
+    assert len(angles) >= 90 and np.percentile(angles, 95) < 2.0 and angles.max() < 5.0
+
+
+@pytest.mark.slow
 def test_covered_cubes_are_never_grasped_at_default_noise():
     trials = standing = 0
     for sim, top, bottom, _, stacked in stack_trials(20, lambda sim, _: (cubes_by_size(sim)[1][0],
@@ -261,3 +430,22 @@ def test_covered_cubes_are_never_grasped_at_default_noise():
             standing += A("on", top, bottom) in s.truth     # the hand may knock the top cube off
     print(f"covered grasps at noise 0.01: 0/{trials} succeeded, {standing}/{trials} towers still standing")
     assert trials >= 10
+
+
+def test_traces_record_the_cell_version_and_older_cells_are_warned_about(capsys):
+    """collect writes the cell's version and the controller's counts into meta; a file from an
+    older cell (or from before versions were recorded: version 1) draws one warning line."""
+    from groundsym.collect import collect_traces
+    from groundsym.sim import warn_if_older_cell
+
+    with TowerSim(cubes=2, big=1, noise=0) as sim:
+        ds = collect_traces(sim, 1, 2, seed=3, progress=False)
+    assert ds.meta["cell_version"] == TowerSim.CELL_VERSION >= 2
+    assert ds.meta["events"]["primitives"] == 2
+    capsys.readouterr()
+    assert not warn_if_older_cell(ds.meta, "new.json")
+    old = {k: v for k, v in ds.meta.items() if k != "cell_version"}
+    assert warn_if_older_cell(old, "old.json")
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "old.json" in err and "version 1" in err
+    assert not warn_if_older_cell({"sim": "no-such-sim"}, "x.json")

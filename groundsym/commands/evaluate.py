@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 from ..errors import UserError
 from ..experiment import EvalConfig, evaluate, markdown_table, methods_list, optimum_of, parse_list
 from ..provenance import provenance
 from ..registry import get_sim_class, planner_names
-from ..sim import parse_options, split_key_values
+from ..fileio import read_json
+from ..sim import parse_options, split_key_values, warn_if_older_cell
 from ._common import add_sim_args, nonneg_int, positive_int, sim_options
 
 NAME = "evaluate"
@@ -76,9 +78,22 @@ def run(args: argparse.Namespace) -> int:
                      evals=args.evals, steps=args.steps, starts=args.starts, unary=args.unary, binary=args.binary,
                      restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth)
     optimum = optimum_of(args.sim, given)
+    _warn_if_resuming_an_older_cell(Path(args.output) / "results.json", args.sim)
     results = evaluate(cfg, args.runs, args.output, workers=min(args.workers, os.cpu_count() or 1),
                        progress=not args.quiet, optimum=optimum,
-                       provenance=provenance(args.argv, seed=args.seed))
+                       provenance=provenance(args.argv, seed=args.seed,
+                                             cell_version=getattr(sim_cls, "CELL_VERSION", None)))
     sys.stdout.write(markdown_table(results))
     print(f"wrote {args.output}/results.json, results.md, results.png", file=sys.stderr)
     return 0
+
+
+def _warn_if_resuming_an_older_cell(previous: Path, sim: str) -> None:
+    """Results already in the output directory (to be resumed) from an older cell: one warning line."""
+    if not previous.exists():
+        return
+    try:
+        meta = read_json(previous).get("meta", {})
+    except (UserError, AttributeError):       # a damaged results file is the evaluation's own business
+        return
+    warn_if_older_cell({"sim": sim, **(meta.get("provenance") or {})}, str(previous))

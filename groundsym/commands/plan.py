@@ -15,7 +15,7 @@ from ..fileio import atomic_write_json
 from ..planner import PlanningModel, make_planner
 from ..provenance import provenance
 from ..registry import get_planner_class, make_sim
-from ..sim import split_key_values
+from ..sim import split_key_values, warn_if_older_cell
 from ._common import add_sim_args, output_path, positive_int, sim_options
 
 NAME = "plan"
@@ -103,6 +103,9 @@ def _run_sim(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> lis
     from ..modeldir import load_model
 
     model = load_model(args.model) if args.model else None
+    data = model and (model.symbolic_traces or model.traces)
+    if data is not None:
+        warn_if_older_cell(data.meta, str(args.model))
     sim = make_sim(args.sim, sim_options(args))
     try:
         pm = sim_planning_model(model, sim)
