@@ -152,6 +152,10 @@ def test_sim_options_and_bad_input():
         gymnasium.make("groundsym/Sim-v0", sim="no-such")
     with pytest.raises(UserError, match="steps=0: expected a whole number of at least 1"):
         gymnasium.make("groundsym/Bowling-v0", pins=1, steps=0)
+    with pytest.raises(UserError, match="sim=: name a simulation"):
+        gymnasium.make("groundsym/Sim-v0")
+    with pytest.raises(UserError, match="render_width=0: expected a whole number of pixels"):
+        gymnasium.make("groundsym/Bowling-v0", pins=1, render_mode="rgb_array", render_width=0)
 
 
 # ----------------------------------------------------------------------------- PPDDL

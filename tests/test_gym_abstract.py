@@ -121,3 +121,28 @@ def test_abstract_observations_pass_the_gymnasium_checker(model):
         messages = [str(w.message) for w in caught]
         assert all("infinity" in m or "different from the unwrapped" in m for m in messages), messages
         env.close()
+
+
+def test_example_q_update_and_masked_greedy_choice():
+    from examples.gym_abstract import QTable
+
+    table = QTable(3, gamma=0.8, alpha=0.5)
+    s, s2 = np.array([1, 0], np.int8), np.array([0, 1], np.int8)
+    table.update(s2, 2, 2.0, s, np.array([1, 1, 1]), True)       # Q(s2, 2) = 0.5 * 2 = 1
+    table.update(s, 0, 1.0, s2, np.array([1, 1, 1]), False)      # Q(s, 0) = 0.5 * (1 + 0.8 * 1) = 0.9
+    assert table.values(s)[0] == pytest.approx(0.9)
+    table.update(s, 1, 1.0, s2, np.array([1, 1, 0]), False)      # action 2 masked in s2: max over 0, 1 is 0
+    assert table.values(s)[1] == pytest.approx(0.5)
+    assert table.greedy(s, np.array([1, 1, 0])) == 0 and table.greedy(s, np.array([0, 1, 1])) == 1
+
+
+@pytest.mark.slow
+def test_example_runs_on_a_learned_model(model, tmp_path, capsys):
+    from examples.gym_abstract import main as example
+
+    plot = tmp_path / "q.png"
+    assert example(["--model", str(model), "--cubes", "2", "--episodes", "2", "--test", "1",
+                    "--plot", str(plot)]) == 0
+    out = capsys.readouterr().out
+    assert "greedy Q policy: mean value" in out and "random policy:" in out
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -33,7 +33,7 @@ from ..ppddl.parser import load
 from ..ppddl.simulate import Task
 from .atoms import AtomIndex, typed_atoms
 from .render import text_frame
-from .sim_env import positive_steps, unseeded
+from .sim_env import frame_size, positive_steps, unseeded
 
 DEFAULT_STEPS = 30
 
@@ -50,9 +50,7 @@ class PPDDLGymEnv(gymnasium.Env):
 
     def __init__(self, domain: str | Path, problem: str | Path | None = None, steps: int = DEFAULT_STEPS,
                  render_mode: str | None = None, render_width: int = 640, render_height: int = 480):
-        if render_mode not in (None, "rgb_array"):
-            raise UserError(f"render_mode={render_mode!r}: expected 'rgb_array' or None")
-        self.render_mode, self.render_size = render_mode, (int(render_width), int(render_height))
+        self.render_mode, self.render_size = render_mode, frame_size(render_mode, render_width, render_height)
         where = str(problem or domain)
         dom, prob = load(domain, problem)
         self.world, self.task = ppddl_world(dom, prob, where)

@@ -29,7 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..errors import UserError
-from ..registry import make_sim
+from ..registry import make_sim, sim_names
 from ..symbols import SymbolSet
 from ..world import Scene
 from .abstract import ATOMS_KEY, SymbolObservation
@@ -49,6 +49,16 @@ def positive_steps(steps: Any, where: str) -> int:
     return value
 
 
+def frame_size(render_mode: str | None, width: Any, height: Any) -> tuple[int, int]:
+    """The checked ``render_mode`` and frame size options, as ``(width, height)``."""
+    if render_mode not in (None, "rgb_array"):
+        raise UserError(f"render_mode={render_mode!r}: expected 'rgb_array' or None")
+    for key, value in (("render_width", width), ("render_height", height)):
+        if not isinstance(value, (int, np.integer)) or not 16 <= value <= 4096:
+            raise UserError(f"{key}={value!r}: expected a whole number of pixels between 16 and 4096")
+    return int(width), int(height)
+
+
 def unseeded(env: gymnasium.Env, seed: int | None) -> int:
     """The seed of an episode: the one given, else one drawn from the environment's generator
     (seeded by the last ``reset(seed=...)``, so a run of unseeded resets repeats too)."""
@@ -60,12 +70,12 @@ class SimGymEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
 
-    def __init__(self, sim: str, render_mode: str | None = None, steps: int | None = None,
+    def __init__(self, sim: str | None = None, render_mode: str | None = None, steps: int | None = None,
                  model: str | Path | SymbolSet | None = None, render_width: int = 640, render_height: int = 480,
                  **options: Any):
-        if render_mode not in (None, "rgb_array"):
-            raise UserError(f"render_mode={render_mode!r}: expected 'rgb_array' or None")
-        self.render_mode, self.render_size = render_mode, (int(render_width), int(render_height))
+        if sim is None:
+            raise UserError(f"sim=: name a simulation ({', '.join(sim_names())})")
+        self.render_mode, self.render_size = render_mode, frame_size(render_mode, render_width, render_height)
         self.sim_name = sim
         self.sim = make_sim(sim, options)
         self._closed = False
