@@ -10,18 +10,26 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
+import tempfile
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from ..errors import UserError
 from ..fileio import atomic_write_text, read_json
 from ..logic import Atom, Literal, is_variable, parse_literal
 from ..modeldir import SYMBOLS, Model, load_model
-from ..ppddl.ast import And, AndEffect, Domain, Effect, ForallEffect, Not, Problem, RewardEffect, Typed, When
-from ..ppddl.convert import NOISE_MODES, action_to_rule, probability, requirements, rules_equal, rules_to_domain
+from ..reward import Feature
+from ..ppddl.ast import (And, AndEffect, Domain, Effect, ForallEffect, Not, Problem, RewardEffect, Typed, When,
+                         number)
+from ..ppddl.convert import (NOISE_MODES, action_to_rule, context_key, domain_to_rules, requirements, rules_close,
+                             rules_to_domain)
 from ..ppddl.determinize import MODES, determinize
+from ..ppddl.names import check_identifier, check_renames, parse_renames, write_renamed
 from ..ppddl.parser import parse_domain, parse_problem
+from ..ppddl.strips import relaxed_reachable, to_strips
 
 NAME = "export-domain"
 HELP = "write a learned model as PPDDL (domain.ppddl, problem.ppddl), optionally determinised PDDL too"
@@ -40,30 +48,31 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise", choices=NOISE_MODES, default="no-change",
                    help="a rule's noise outcome: no change (default) or pessimistic (a dead end)")
     p.add_argument("--determinize", choices=MODES, help="also write plain domain.pddl and problem.pddl")
+    p.add_argument("--strips", action="store_true",
+                   help="with --determinize: compile domain.pddl to plain STRIPS (grounded; no negative, "
+                        "equality or quantified preconditions), for planners such as pyperplan")
+    p.add_argument("--strict", action="store_true",
+                   help="a warning (no actions to plan with, a goal that cannot be reached) is an error")
+    p.add_argument("--rename", action="append", default=[], metavar="OLD=NEW",
+                   help="name a learned predicate for this export (repeatable), e.g. --rename u1=inhand")
     p.add_argument("--name", default="learned", help="domain name (default: learned)")
 
 
 # ------------------------------------------------------------------------------ predicate comments
 def predicate_comments(model: Model) -> dict[str, str]:
-    """What each learned predicate means geometrically: the symbol module's plain-words description
-    (groundsym.describe, when present), then the RBF centre ± width per feature and the share of
-    the data where it holds, from ``symbols.json``."""
+    """What each learned predicate means, in words (groundsym.describe: only the dimensions that
+    decide the symbol on the training data), and the share of the data where it holds."""
     path = model.path / SYMBOLS
     if not path.exists():
         return {}
     doc = read_json(path)
-    names = doc.get("feature_names") or []
-    pair = doc.get("pair_feature_names") or [f"d{n}" for n in names]
     shares = {s["name"]: s["share"] for s in doc.get("symbols") or [] if isinstance(s.get("share"), (int, float))}
     words = _described(model, shares)
     out = {}
     for s in doc.get("symbols") or []:
-        space = names if s.get("arity") == 1 else pair
-        dims = ", ".join(f"{n}={c:.3g}±{w:.3g}" for n, c, w in zip(space, s.get("centre", []), s.get("widths", [])))
-        what = "of one object" if s.get("arity") == 1 else "of an ordered pair (features of ?x1 minus ?x2)"
-        share = f"; holds for {100 * shares[s['name']]:.1f}% of the data" if s["name"] in shares else ""
-        plain = f"{words[s['name']]}; " if s["name"] in words else ""
-        out[s["name"]] = f"{plain}learned RBF symbol {what}: centre±width {dims}{share}"
+        of = "objects" if s.get("arity") == 1 else "ordered pairs (?x1, ?x2)"
+        share = f"; true for {100 * shares[s['name']]:.1f}% of {of} in the data" if s["name"] in shares else ""
+        out[s["name"]] = f"{words.get(s['name'], 'a learned symbol')}{share}"
     return out
 
 
@@ -93,7 +102,7 @@ def initial_state(model: Model, scene: str | None) -> tuple[tuple[str, ...], fro
         if sds is None or not sds.traces:
             raise UserError(f"{model.path}: no symbolic-traces.json to take the initial state from; give --scene")
         tr = sds.traces[0]
-        return tr.objects, tr.states[0], f"the first state of the model's first training trace ({model.path})"
+        return tr.objects, tr.states[0], "the first state of the model's first training trace"
     parts = scene.rsplit(":", 2)
     if len(parts) != 3 or not parts[1].isdigit() or not parts[2].isdigit():
         raise UserError(f"--scene: expected FILE:TRACE:STEP, got {scene!r}")
@@ -106,7 +115,7 @@ def initial_state(model: Model, scene: str | None) -> tuple[tuple[str, ...], fro
         tr = _pick(traces, ti, path, "traces")
         if si > len(tr):
             raise UserError(f"{path}: traces[{ti}]: has {len(tr) + 1} states, no step {si}")
-        return tr.objects, tr.states[si], f"{path} trace {ti} step {si}"
+        return tr.objects, tr.states[si], f"{Path(path).name} trace {ti} step {si}"
     if schema == "groundsym.traces/1":
         from ..traces import read_traces
         symbols = model.symbols
@@ -115,7 +124,7 @@ def initial_state(model: Model, scene: str | None) -> tuple[tuple[str, ...], fro
         tr = _pick(read_traces(path).traces, ti, path, "traces")
         if si >= len(tr.scenes):
             raise UserError(f"{path}: traces[{ti}]: has {len(tr.scenes)} scenes, no step {si}")
-        return tuple(tr.objects), symbols.abstract_scene(tr.scenes[si]), f"{path} trace {ti} step {si}"
+        return tuple(tr.objects), symbols.abstract_scene(tr.scenes[si]), f"{Path(path).name} trace {ti} step {si}"
     raise UserError(f"{path}: schema: expected a traces or symbolic traces file, got {schema!r}")
 
 
@@ -190,21 +199,69 @@ def derived_goal(model: Model, objects: tuple[str, ...]) -> tuple[list[Literal],
 
 
 # ------------------------------------------------------------------------------ reward effects
+REWARD_DIGITS = 4           # significant digits of an exported reward term
+REWARD_DROP = 1e-3          # terms smaller than this share of the largest are left out
+
+
+@dataclass(frozen=True)
+class RewardTerms:
+    """The reward model as exported: rounded, with the negligible terms left out."""
+
+    intercept: Fraction
+    terms: tuple[tuple[Feature, Fraction], ...]
+    dropped: int
+
+
+def reward_terms(model: Model) -> RewardTerms:
+    rm = model.reward
+    big = max([abs(rm.intercept), *(abs(w) for w in rm.weights)], default=0.0)
+
+    def kept(x: float) -> bool:
+        return x != 0 and abs(x) >= REWARD_DROP * big
+
+    def rounded(x: float) -> Fraction:
+        return Fraction(f"{x:.{REWARD_DIGITS}g}")
+
+    terms = tuple((f, rounded(w)) for f, w in zip(rm.features, rm.weights) if kept(w))
+    dropped = sum(1 for x in (rm.intercept, *rm.weights) if x != 0 and not kept(x))
+    return RewardTerms(rounded(rm.intercept) if kept(rm.intercept) else Fraction(0), terms, dropped)
+
+
 def reward_effect(model: Model) -> Effect | None:
     """``r(s) = c + sum_k w_k #groundings(f_k)`` as effects: one ``forall .. when`` per feature, read
     in the state the action is taken in (the reward of that step's state)."""
-    rm = model.reward
+    rt = reward_terms(model)
     parts: list[Effect] = []
-    if rm.intercept != 0:
-        parts.append(RewardEffect(probability(rm.intercept)))
-    for f, w in zip(rm.features, rm.weights):
-        if w == 0:
-            continue
+    if rt.intercept != 0:
+        parts.append(RewardEffect(rt.intercept))
+    for f, w in rt.terms:
         vs = f.variables
         cond = list(f.atoms) + [Not(Atom("=", (u, v))) for i, u in enumerate(vs) for v in vs[i + 1:]]
-        body: Effect = When(cond[0] if len(cond) == 1 else And(tuple(cond)), RewardEffect(probability(w)))
+        body: Effect = When(cond[0] if len(cond) == 1 else And(tuple(cond)), RewardEffect(w))
         parts.append(ForallEffect(tuple(Typed(v) for v in vs), body) if vs else body)
     return AndEffect(tuple(parts)) if parts else None
+
+
+_GROUPS = {1: "object", 2: "pair", 3: "triple"}
+
+
+def reward_words(model: Model) -> list[str]:
+    """The reward model once, in words, for the domain's header comment."""
+    rt = reward_terms(model)
+    if rt.intercept == 0 and not rt.terms:
+        return ["reward: none (the model has no reward terms)"]
+    lines = ["reward of a step, read in the state the action is taken in (every action carries it as "
+             "reward effects):", f"  r = {number(rt.intercept)}"]
+    for f, w in rt.terms:
+        vs = f.variables
+        atoms = " ".join(str(a) for a in f.atoms)
+        what = (f"if {atoms}" if not vs else
+                f"for each {_GROUPS.get(len(vs), f'{len(vs)}-tuple')} ({' '.join(vs)})"
+                + (" of distinct objects" if len(vs) > 1 else "") + f" with {atoms}")
+        lines.append(f"    {'+' if w >= 0 else '-'} {number(abs(w))} {what}")
+    lines.append(f"  (terms rounded to {REWARD_DIGITS} significant digits"
+                 + (f"; {rt.dropped} below 1/1000 of the largest left out)" if rt.dropped else ")"))
+    return lines
 
 
 def with_reward(domain: Domain, effect: Effect | None) -> Domain:
@@ -216,8 +273,39 @@ def with_reward(domain: Domain, effect: Effect | None) -> Domain:
 
 
 # ------------------------------------------------------------------------------ the command
+DECIMALS = 4                # decimals of an exported probability
+
+
+@contextmanager
+def _renamed(model: Model, renames: list[str]) -> Iterator[Model]:
+    """The model with ``--rename`` applied (a renamed copy in a temporary directory)."""
+    if not renames:
+        yield model
+        return
+    mapping = parse_renames(renames, "--rename")
+    prims = list(model.primitives) or sorted({r.action.predicate for r in model.rules.rules})
+    check_renames(mapping, model.predicates, prims, str(model.path), "--rename")
+    with tempfile.TemporaryDirectory(prefix="groundsym-rename-") as tmp:
+        write_renamed(model.path, Path(tmp), mapping)
+        yield load_model(tmp)
+
+
+def _warn(message: str, strict: bool) -> None:
+    """One line on stderr; with ``--strict`` an error (exit status 2)."""
+    if strict:
+        raise UserError(message + " (--strict)")
+    print(f"groundsym export-domain: warning: {message}", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
-    model = load_model(args.model)
+    check_identifier(args.name, "--name")
+    if args.strips and not args.determinize:
+        raise UserError("--strips: needs --determinize all-outcomes or most-likely")
+    with _renamed(load_model(args.model), args.rename) as model:
+        return _export(model, args)
+
+
+def _export(model: Model, args: argparse.Namespace) -> int:
     if not model.rules.rules:
         raise UserError(f"{args.model}: rules.json holds no rules (only default rules): nothing to export")
     predicates = dict(model.predicates)
@@ -233,45 +321,77 @@ def run(args: argparse.Namespace) -> int:
         goal, goal_note = parse_goal(args.goal, predicates, objects), "goal: given with --goal"
     else:
         goal, goal_note = derived_goal(model, objects)
-    header = (f"NID rules of {model.path} as PPDDL (groundsym export-domain); one action per rule, "
-              f"noise as {args.noise}")
-    domain = rules_to_domain(model.rules, predicates, args.name, args.noise, predicate_comments(model), header)
-    domain = with_reward(domain, reward_effect(model))
-    reward_note = ("reward: the relational reward model is written as reward effects of every action"
-                   if reward_effect(model) is not None else "reward: none (the model has no reward terms)")
+    dropped: list[str] = []
+    reward = reward_effect(model)
+    domain = rules_to_domain(model.rules, predicates, args.name, args.noise, predicate_comments(model), "",
+                             DECIMALS, True, dropped, drop_no_change=reward is None)
+    header = [f"learned NID rules as PPDDL (groundsym export-domain): one action per rule",
+              f"probabilities rounded to {DECIMALS} decimals; the mass an outcome list leaves unassigned is "
+              + ("no change (the rule's noise)" if args.noise == "no-change" else "a dead end (noise-happened)"),
+              "a precondition's last (and ...) lists the other rules of the action that must not apply"]
+    if dropped:
+        header.append(f"left out: {len(dropped)} rule(s) that can never apply (another rule always applies "
+                      f"with them) or change nothing: {', '.join(dropped)}")
+    domain = replace(with_reward(domain, reward), comment="\n".join(header + reward_words(model)))
     problem = Problem("scene", domain.name, tuple(Typed(o) for o in objects), tuple(sorted(state)),
                       (And(tuple(l.atom if l.positive else Not(l.atom) for l in goal)) if goal else None),
                       None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
-                      comment=f"initial state: {source}\n{goal_note}\n{reward_note}")
-    _check_round_trip(model, domain, problem)
+                      comment=f"initial state: {source}\n{goal_note}")
+    _check_round_trip(model, domain, problem, dropped)
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
-    atomic_write_text(out / "domain.ppddl", str(domain))
-    atomic_write_text(out / "problem.ppddl", str(problem))
-    written = ["domain.ppddl", "problem.ppddl"]
+    files = {"domain.ppddl": str(domain), "problem.ppddl": str(problem)}
+    plain_note = ""
     if args.determinize:
-        plain_d, plain_p = determinize(domain, problem, args.determinize)
-        atomic_write_text(out / "domain.pddl", str(plain_d))
-        written.append("domain.pddl")
+        plain_d, plain_p = _plain(domain, problem, args, goal_note)
+        files["domain.pddl"] = str(plain_d)
         if plain_p is not None and plain_p.goal is not None:
-            atomic_write_text(out / "problem.pddl", str(plain_p))
-            written.append("problem.pddl")
-        else:
-            print(f"{out}: problem.pddl not written: {goal_note}", file=sys.stderr)
-    print(f"{out}: wrote {', '.join(written)} ({len(domain.actions)} actions, {len(objects)} objects"
-          f"{', no goal' if not goal else ''})")
+            files["problem.pddl"] = str(plain_p)
+        plain_note = f"; domain.pddl: {len(plain_d.actions)} actions"
+    for name, text in files.items():
+        atomic_write_text(out / name, text)
+    if args.determinize and "problem.pddl" not in files:
+        print(f"{out}: problem.pddl not written: {goal_note}", file=sys.stderr)
+    left = f", {len(dropped)} rule(s) that can never apply or change nothing left out" if dropped else ""
+    print(f"{out}: wrote {', '.join(files)} ({len(domain.actions)} actions{left}{plain_note}; "
+          f"{len(objects)} objects{', no goal' if not goal else ''})")
     return 0
 
 
-def _check_round_trip(model: Model, domain: Domain, problem: Problem) -> None:
-    """The written text must parse back to the same rules: a bug here must not reach a user."""
+def _plain(domain: Domain, problem: Problem, args: argparse.Namespace,
+           goal_note: str) -> tuple[Domain, Problem | None]:
+    """The determinised (and with ``--strips`` compiled) domain and problem, with the warnings."""
+    plain_d, plain_p = determinize(domain, problem, args.determinize)
+    if not plain_d.actions:
+        _warn(f"the {args.determinize} determinisation has no actions (no rule changes anything): "
+              "a classical planner can do nothing with it", args.strict)
+    if args.strips:
+        plain_d, plain_p = to_strips(plain_d, plain_p)
+    if plain_p is not None and plain_p.goal is not None and plain_d.actions:
+        if relaxed_reachable(plain_d, plain_p) is False:
+            _warn("the goal cannot be reached from the initial state even with delete effects and negative "
+                  "conditions ignored "
+                  f"(relaxed reachability over the {args.determinize} determinisation)", args.strict)
+    return plain_d, plain_p
+
+
+def _check_round_trip(model: Model, domain: Domain, problem: Problem, dropped: list[str]) -> None:
+    """The written text must parse back to the model's rules, within the rounding of the
+    probabilities; a rule that was left out must come back as a blocking rule. A bug here must
+    not reach a user."""
     parsed = parse_domain(str(domain), "<exported domain>")
     parse_problem(str(problem), parsed, "<exported problem>")
     back = {a.name: action_to_rule(a) for a in parsed.actions}
+    blocking = {context_key(r) for r in domain_to_rules(parsed).rules}
     for prim_k, rule in _numbered(model.rules.rules):
+        if prim_k in dropped:
+            if context_key(rule) not in blocking and any(not o.is_empty for o in rule.outcomes):
+                raise RuntimeError(f"exported PPDDL does not block where the left-out rule {prim_k} does")
+            continue
         again = back.pop(prim_k, None)
-        if again is None or not rules_equal(rule, again):
+        tol = 10.0 ** -DECIMALS * (len(rule.outcomes) + 1)
+        if again is None or not rules_close(rule, again, tol):
             raise RuntimeError(f"exported PPDDL does not read back as the model's rule {prim_k}")
     if back:
         raise RuntimeError(f"exported PPDDL has actions for no rule: {sorted(back)}")

@@ -14,6 +14,7 @@ node into nested lists, and :func:`layout` prints those lists; every node's ``st
 from __future__ import annotations
 
 import re
+import textwrap
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Union
@@ -304,8 +305,8 @@ def _domain_sexp(d: Domain) -> list:
         out.append([":functions", *([f.name, *typed_list(f.params)] for f in sorted(d.functions, key=lambda f: f.name))])
     for a in d.actions:
         act: list = [":action", a.name, *_comment_lines(a.comment), ":parameters", typed_list(a.parameters)]
-        if a.precondition != TRUE:
-            act += [":precondition", to_sexp(a.precondition)]
+        # always written, ``(and)`` when empty: some readers (plado) fail on an action without one
+        act += [":precondition", to_sexp(a.precondition)]
         act += [":effect", to_sexp(a.effect)]
         out.append(act)
     return out
@@ -342,6 +343,16 @@ def _flat(x: object) -> str | None:
     return "(" + " ".join(parts) + ")"  # type: ignore[arg-type]
 
 
+def _commented(item: Commented, pad: str) -> list[str]:
+    """An element with its comment: on one line when that fits in :data:`WIDTH`, else the comment
+    wrapped into lines of its own above the element."""
+    text = "" if item.item is None else layout(item.item, len(pad))
+    if len(pad) + len(text) + 4 + len(item.comment) <= WIDTH and "\n" not in text:
+        return [pad + (text + "  " if text else "") + "; " + item.comment]
+    wrapped = textwrap.wrap(item.comment, WIDTH - len(pad) - 2, break_long_words=False, break_on_hyphens=False)
+    return [pad + "; " + line for line in wrapped or [""]] + ([pad + text] if text else [])
+
+
 def layout(x: object, indent: int = 0) -> str:
     """Print an s-expression: on one line when it fits, else one element per line, indented."""
     flat = _flat(x)
@@ -355,8 +366,7 @@ def layout(x: object, indent: int = 0) -> str:
     while i < len(x):
         item = x[i]
         if isinstance(item, Commented):
-            text = "" if item.item is None else layout(item.item, indent + 2) + "  "
-            lines.append(pad + text + "; " + item.comment)
+            lines += _commented(item, pad)
         elif head == "probabilistic" and isinstance(item, str) and i + 1 < len(x):
             lines.append(pad + item + " " + layout(x[i + 1], indent + 3 + len(item)))
             i += 1

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import re
 from fractions import Fraction
+from itertools import permutations
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -38,6 +39,7 @@ from ..logic import Atom, Literal, is_variable
 from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
 from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
                   Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
+from .simplify import FALSE, simplify
 
 NOISE_PREDICATE = "noise-happened"
 NOISE_MODES = ("no-change", "pessimistic")
@@ -192,9 +194,46 @@ def _effect(changes: Sequence[Literal]) -> Effect:
     return lits[0] if len(lits) == 1 else AndEffect(lits)
 
 
+def rounded_probs(probs: Sequence[float], decimals: int | None) -> list[Fraction]:
+    """Outcome probabilities with at most ``decimals`` decimals (None: exact), summing to at most 1
+    (float rounding or the rounding here taken off the largest); the rest is read as no change."""
+    if decimals is None:
+        fr = [probability(p) for p in probs]
+    else:
+        fr = [Fraction(round(float(p) * 10 ** decimals), 10 ** decimals) for p in probs]
+    excess = sum(fr, Fraction(0)) - 1
+    if excess > 0:
+        i = max(range(len(fr)), key=lambda j: fr[j])
+        fr[i] -= excess
+    return fr
+
+
+def _exclusions(rule: Rule, others: Sequence[Rule], action_vars: Sequence[str], taken: set[str],
+                injective: bool, simple: bool) -> list[Formula] | None:
+    """``(not <rule j covers>)`` for every other rule that can cover together with ``rule``; None
+    when one of them always covers (then ``rule`` can never be the unique covering rule)."""
+    out: list[Formula] = []
+    for other in others:
+        if _disjoint(rule, other):
+            continue
+        x: Formula = Not(_covers(other, action_vars, set(taken), injective))
+        if simple:
+            x = simplify(x)
+            if x == FALSE:
+                return None
+            if x == TRUE or x in out:
+                continue
+        out.append(x)
+    return out
+
+
 def rule_to_action(rule: Rule, k: int, others: Sequence[Rule], noise: str = "no-change",
-                   injective: bool = True) -> Action:
-    """The PPDDL action of ``rule`` (the ``k``-th of its primitive); ``others``: its primitive's other rules."""
+                   injective: bool = True, decimals: int | None = None, simple: bool = False) -> Action | None:
+    """The PPDDL action of ``rule`` (the ``k``-th of its primitive); ``others``: its primitive's other rules.
+
+    ``decimals``: round the probabilities (None: exact). ``simple``: simplify the precondition
+    (:mod:`.simplify`), put the exclusions in one trailing ``(and ...)`` group, and return None for
+    a rule that can never apply (its context contradicts itself, or another rule always covers)."""
     if noise not in NOISE_MODES:
         raise UserError(f"--noise: expected one of {', '.join(NOISE_MODES)}, got {noise!r}")
     variables = list(rule.variables)
@@ -207,17 +246,22 @@ def rule_to_action(rule: Rule, k: int, others: Sequence[Rule], noise: str = "no-
     u = _unique(rule.context, action_vars, deictic, taken, injective)
     if u is not None:
         pre.append(u)
-    for other in others:
-        if not _disjoint(rule, other):
-            pre.append(Not(_covers(other, action_vars, set(taken), injective)))
-    if noise == "pessimistic":
-        pre.append(Not(Atom(NOISE_PREDICATE)))
-    probs = [probability(p) for p in rule.probs]
-    branches: list[tuple[Fraction, Effect]] = [(p, _effect(o.changes)) for p, o in zip(probs, rule.outcomes)]
-    excess = sum(probs, Fraction(0)) - 1
-    if excess > 0:  # float rounding in a learned rule: take it off the largest outcome
-        i = max(range(len(branches)), key=lambda j: branches[j][0])
-        branches[i] = (branches[i][0] - excess, branches[i][1])
+    excl = _exclusions(rule, others, action_vars, taken, injective, simple)
+    if excl is None:
+        return None
+    guard = [Not(Atom(NOISE_PREDICATE))] if noise == "pessimistic" else []
+    if simple:
+        main = simplify(And(tuple(pre + guard)))
+        if main == FALSE:
+            return None
+        parts = list(main.args) if isinstance(main, And) else [main]
+        precondition: Formula = And(tuple(parts + ([And(tuple(excl))] if excl else [])))
+    else:
+        pre += excl + guard
+        precondition = _conj(pre) if pre else TRUE
+    probs = rounded_probs(rule.probs, decimals)
+    branches: list[tuple[Fraction, Effect]] = [(p, _effect(o.changes)) for p, o in zip(probs, rule.outcomes)
+                                               if p > 0 or decimals is None]
     rest = 1 - sum((p for p, _ in branches), Fraction(0))
     if noise == "pessimistic" and rest > 0:
         branches.append((rest, Literal(Atom(NOISE_PREDICATE))))
@@ -226,24 +270,35 @@ def rule_to_action(rule: Rule, k: int, others: Sequence[Rule], noise: str = "no-
     else:
         effect = Probabilistic(tuple(branches)) if branches else NO_EFFECT
     refs = ", ".join(deictic)
-    comment = (f"rule {k} of {rule.action}" + (f"; deictic {refs} are the unique objects the context names" if refs
-                                               else "") + f"; noise {float(rule.noise):.4g}"
+    what = (f"; {refs} {'is the one object' if len(deictic) == 1 else 'are the objects'} the context names"
+            if refs else "")
+    shown = f"{float(rest):.4g}" if decimals is not None else f"{float(rule.noise):.4g}"
+    comment = (f"rule {k} of {rule.action}{what}; noise {shown}"
                + (" (no change)" if noise == "no-change" else " -> (noise-happened)"))
-    return Action(f"{rule.action.predicate}_r{k}", tuple(Typed(v) for v in variables), _conj(pre) if pre else TRUE,
-                  effect, comment)
+    return Action(f"{rule.action.predicate}_r{k}", tuple(Typed(v) for v in variables), precondition, effect, comment)
 
 
 def rules_to_domain(rules: RuleSet, predicates: Mapping[str, int], name: str = "learned",
                     noise: str = "no-change", comments: Mapping[str, str] | None = None,
-                    comment: str = "") -> Domain:
-    """A PPDDL domain whose actions are ``rules``' non-default rules (see the module docstring)."""
+                    comment: str = "", decimals: int | None = None, simple: bool = False,
+                    dropped: list[str] | None = None, drop_no_change: bool = False) -> Domain:
+    """A PPDDL domain whose actions are ``rules``' non-default rules (see the module docstring).
+
+    ``decimals`` and ``simple``: see :func:`rule_to_action`; the names of rules that can never
+    apply (left out) are appended to ``dropped``. ``drop_no_change``: leave out actions whose
+    effect is empty too (the same as no action; plado fails on an empty effect); a reader gets
+    them back from the other actions' exclusions (:func:`domain_to_rules`)."""
     by_prim: dict[str, list[Rule]] = {}
     for r in rules.rules:
         by_prim.setdefault(r.action.predicate, []).append(r)
     actions = []
     for prim, rs in by_prim.items():
         for k, r in enumerate(rs, 1):
-            actions.append(rule_to_action(r, k, [o for o in rs if o is not r], noise, rules.injective))
+            a = rule_to_action(r, k, [o for o in rs if o is not r], noise, rules.injective, decimals, simple)
+            if a is not None and not (drop_no_change and a.effect == NO_EFFECT):
+                actions.append(a)
+            elif dropped is not None:
+                dropped.append(f"{prim}_r{k}")
     preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(n)), (comments or {}).get(p, ""))
              for p, n in sorted(predicates.items())]
     if noise == "pessimistic":
@@ -309,12 +364,22 @@ def _literals_of(e: Effect, where: str) -> list[Literal]:
     raise UserError(f"{where}: effect is outside the rule subset (only literals, and, one probabilistic)")
 
 
+def _split_exclusions(action: Action) -> tuple[list[Formula], list[Formula]]:
+    """(the precondition's conjuncts, the exclusion group): a rule action's trailing ``(and ...)``
+    conjunct lists the other rules that must not cover (what ``rule_to_action`` writes)."""
+    pre = action.precondition
+    args = list(pre.args) if isinstance(pre, And) else [pre]
+    if _RULE_NAME.match(action.name) and args and isinstance(args[-1], And):
+        return [g for x in args[:-1] for g in _conjuncts(x)], list(args[-1].args)
+    return _conjuncts(pre), []
+
+
 def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
     where = f"{domain_name}: action {action.name}"
     prim, n = primitive_of(action)
     names = [p.name for p in action.parameters]
     context: list[Literal] = []
-    for c in _conjuncts(action.precondition):
+    for c in _split_exclusions(action)[0]:
         if isinstance(c, Atom) and c.predicate != "=":
             context.append(Literal(c, True))
         elif isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
@@ -362,10 +427,71 @@ def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
         raise UserError(f"{where}: {exc}") from None
 
 
+def _excluded_context(x: Formula) -> list[Literal] | None:
+    """The context of the rule an exclusion conjunct ``(not <covers>)`` excludes (after
+    simplification a one-literal context's exclusion is that literal negated); None if ``x`` is
+    not an exclusion."""
+    if isinstance(x, Atom) and x.predicate != "=":
+        return [Literal(x, False)]
+    if not isinstance(x, Not):
+        return None
+    a = x.arg
+    if isinstance(a, Atom):
+        return [Literal(a, True)] if a.predicate != "=" else None
+    if not isinstance(a, (And, Exists)):
+        return None
+    body = a.body if isinstance(a, Exists) else a
+    lits = []
+    for c in _conjuncts(body):
+        if isinstance(c, Atom) and c.predicate != "=":
+            lits.append(Literal(c, True))
+        elif isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
+            lits.append(Literal(c.arg, False))
+    return lits
+
+
+def context_key(rule: Rule) -> tuple:
+    """The rule's primitive and context up to the names of its variables (deictic references in
+    every order; rules have few)."""
+    ren = {v: f"?a{i}" for i, v in enumerate(rule.action.args)}
+    best = None
+    for perm in permutations(range(len(rule.deictic))):
+        ren.update({y: f"?d{perm[j]}" for j, y in enumerate(rule.deictic)})
+        key = tuple(sorted(str(l.substitute(ren)) for l in rule.context))
+        best = key if best is None or key < best else best
+    return rule.action.predicate, len(rule.action.args), best
+
+
+def _blocking_rules(domain: Domain, rules: Sequence[Rule]) -> list[Rule]:
+    """Rules that an exclusion names but no action is for (rules that can never apply, which a
+    simplified export leaves out), as rules whose one outcome is no change: with them the rule
+    set blocks where the domain's exclusions block."""
+    known = {context_key(r) for r in rules}
+    out = []
+    for a in domain.actions:
+        conj, group = _split_exclusions(a)
+        candidates = group + [c for c in conj if isinstance(c, Not) and isinstance(c.arg, (And, Exists))]
+        prim, n = primitive_of(a)
+        for x in candidates:
+            ctx = _excluded_context(x)
+            if ctx is None:
+                continue
+            try:
+                r = Rule(Atom(prim, tuple(p.name for p in a.parameters[:n])), tuple(ctx), (Outcome(()),), (1.0,), 0.0)
+            except ValueError:
+                continue
+            if context_key(r) not in known:
+                known.add(context_key(r))
+                out.append(r)
+    return out
+
+
 def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
     """The NID rules of a domain in the rule subset. With no applicable action nothing changes in
-    PPDDL, so each primitive's default rule is "no change" (``default_noise`` = 0)."""
+    PPDDL, so each primitive's default rule is "no change" (``default_noise`` = 0). Rules that
+    only block (named by exclusions, with no action of their own) come back as no-change rules."""
     rules = [action_to_rule(a, domain.name) for a in domain.actions]
+    rules += _blocking_rules(domain, rules)
     prims = sorted({r.action.predicate for r in rules})
     return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims))
 
@@ -376,3 +502,11 @@ def rules_equal(a: Rule, b: Rule, tol: float = 1e-9) -> bool:
     return (a.action == b.action and a.context == b.context and a.outcomes == b.outcomes
             and a.probs == b.probs and abs(a.noise - b.noise) <= tol)
 
+
+def rules_close(a: Rule, b: Rule, tol: float) -> bool:
+    """Same action and context; every outcome's probability and the noise within ``tol`` (an
+    outcome missing on one side counts as probability 0): a rule and its rounded export."""
+    pa = dict(zip(a.outcomes, a.probs))
+    pb = dict(zip(b.outcomes, b.probs))
+    return (a.action == b.action and a.context == b.context and abs(a.noise - b.noise) <= tol
+            and all(abs(pa.get(o, 0.0) - pb.get(o, 0.0)) <= tol for o in {*pa, *pb}))

@@ -1,0 +1,133 @@
+"""Names that go into PDDL files, and renaming predicates throughout a model directory.
+
+Why here: a predicate or domain name is pasted into a PDDL file as is, so a name such as
+``x) (:requirements`` would change the file's meaning. Every name a user gives (``--name``,
+``--rename u1=inhand``, ``groundsym rename``) passes :func:`check_identifier` first.
+
+Renaming works on the files' JSON documents (rules, reward, symbolic traces, symbols) and on the
+readable ``rules.txt``, so every other field (provenance, fit statistics, covers) stays as it was.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from ..errors import UserError
+from ..fileio import atomic_write_json, atomic_write_text, read_json
+
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
+# words that PDDL or PPDDL give a meaning, and names the exporter uses itself
+RESERVED = frozenset({
+    "and", "or", "not", "imply", "exists", "forall", "when", "either", "probabilistic", "increase",
+    "decrease", "reward", "total-cost", "define", "domain", "problem", "object", "noise-happened",
+})
+
+
+def check_identifier(name: str, what: str) -> str:
+    """``name`` if it is a PDDL identifier (a letter, then letters, digits, ``-`` or ``_``) and
+    not a PDDL keyword; else a :class:`UserError` that says why, naming ``what``."""
+    if not isinstance(name, str) or not name:
+        raise UserError(f"{what}: the name is empty")
+    if not _IDENTIFIER.match(name):
+        bad = next((c for c in name if not (c.isascii() and (c.isalnum() or c in "_-"))), None)
+        why = (f"it contains {bad!r}" if bad is not None else f"it starts with {name[0]!r}")
+        raise UserError(f"{what}: {name!r} is not a PDDL name ({why}; use a letter, then letters, "
+                        "digits, '-' or '_')")
+    if name.lower() in RESERVED:
+        raise UserError(f"{what}: {name!r} is a PDDL keyword; choose another name")
+    return name
+
+
+def parse_renames(items: Sequence[str], what: str = "rename") -> dict[str, str]:
+    """``["u1=inhand", "b1=on"]`` -> ``{"u1": "inhand", "b1": "on"}``, each side checked."""
+    out: dict[str, str] = {}
+    for item in items:
+        old, sep, new = item.partition("=")
+        if not sep:
+            raise UserError(f"{what}: expected OLD=NEW, got {item!r}")
+        check_identifier(old.strip(), f"{what} {item}")
+        check_identifier(new.strip(), f"{what} {item}")
+        old, new = old.strip(), new.strip()
+        if old in out:
+            raise UserError(f"{what}: {old} is renamed twice")
+        out[old] = new
+    return out
+
+
+def check_renames(mapping: Mapping[str, str], predicates: Mapping[str, int], primitives: Sequence[str],
+                  where: str, what: str = "rename") -> None:
+    """Every old name is a predicate of the model; no new name collides with a predicate that
+    stays, another new name or a primitive (action) name."""
+    for old in mapping:
+        if old not in predicates:
+            raise UserError(f"{what}: {where} has no predicate {old!r} (predicates: {', '.join(sorted(predicates))})")
+    after = [mapping.get(p, p) for p in predicates]
+    clash = sorted({n for n in after if after.count(n) > 1})
+    if clash:
+        raise UserError(f"{what}: two predicates would be called {clash[0]!r}")
+    prim = sorted(set(after) & set(primitives))
+    if prim:
+        raise UserError(f"{what}: {prim[0]!r} is an action name of {where}; choose another name")
+
+
+def _pattern(mapping: Mapping[str, str]) -> re.Pattern:
+    names = "|".join(re.escape(k) for k in sorted(mapping, key=len, reverse=True))
+    return re.compile(rf"(?<=\()\s*({names})(?=[\s)])")
+
+
+def rename_text(text: str, mapping: Mapping[str, str]) -> str:
+    """Rename predicates in atom texts: ``(u1 ?x)`` -> ``(inhand ?x)``; other words are untouched."""
+    if not mapping:
+        return text
+    return _pattern(mapping).sub(lambda m: mapping[m.group(1).strip()], text)
+
+
+def _rename_doc(doc: Any, mapping: Mapping[str, str], keys: bool = False) -> Any:
+    """Every atom text inside a JSON document renamed; ``predicates`` maps get renamed keys."""
+    if isinstance(doc, str):
+        return rename_text(doc, mapping) if "(" in doc else doc
+    if isinstance(doc, list):
+        return [_rename_doc(x, mapping) for x in doc]
+    if isinstance(doc, dict):
+        out = {}
+        for k, v in doc.items():
+            if k == "predicates" and isinstance(v, dict):
+                out[k] = {mapping.get(p, p): n for p, n in v.items()}
+            elif k == "provenance":
+                out[k] = v                     # the command that made the file, as it was
+            else:
+                out[k] = _rename_doc(v, mapping)
+        return out
+    return doc
+
+
+def _rename_symbols_doc(doc: Any, mapping: Mapping[str, str]) -> Any:
+    if isinstance(doc, dict) and isinstance(doc.get("symbols"), list):
+        doc = dict(doc)
+        doc["symbols"] = [dict(s, name=mapping.get(s.get("name"), s.get("name"))) if isinstance(s, dict) else s
+                          for s in doc["symbols"]]
+    return doc
+
+
+JSON_FILES = ("rules.json", "reward.json", "symbolic-traces.json")
+
+
+def write_renamed(src: Path, dst: Path, mapping: Mapping[str, str]) -> None:
+    """Copies of the model files of ``src`` in ``dst`` with predicates renamed; files that hold
+    no predicate names (``traces.json``, plots) are copied as they are."""
+    dst.mkdir(parents=True, exist_ok=True)
+    for f in sorted(src.iterdir()):
+        if f.is_dir() or f.name == "manifest.json":     # the manifest's checksums are of the old files
+            continue
+        if f.name in JSON_FILES:
+            atomic_write_json(dst / f.name, _rename_doc(read_json(f), mapping),
+                              indent=None if f.name == "symbolic-traces.json" else 1)
+        elif f.name == "symbols.json":
+            atomic_write_json(dst / f.name, _rename_symbols_doc(read_json(f), mapping), indent=1)
+        elif f.name == "rules.txt":
+            atomic_write_text(dst / f.name, rename_text(f.read_text(), mapping))
+        else:
+            shutil.copy2(f, dst / f.name)
