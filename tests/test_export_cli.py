@@ -200,3 +200,92 @@ def test_scene_from_continuous_traces_is_abstracted_with_the_symbols(bw_model, t
     clear = full.symbols[0]
     want = {Atom("clear", (o,)) for o, y in zip(scene.objects, scene.features) if clear.holds(np.asarray(y))}
     assert want and {a for a in problem.init if a.predicate == "clear"} == want
+
+
+def test_pyperplan_solves_the_strips_determinisation_of_a_learned_blocks_world(bw_model, tmp_path):
+    """pyperplan (through unified-planning) takes STRIPS only; the plan must reach the goal when run
+    in the compiled domain by our own simulator."""
+    goal = "(on a b) (on b c)"
+    assert main(["export-domain", str(bw_model), "-o", str(tmp_path), "--goal", goal,
+                 "--determinize", "all-outcomes", "--strips"]) == 0
+    plain, plain_problem = load(tmp_path / "domain.pddl", tmp_path / "problem.pddl")
+    assert plain.requirements == (":strips",)
+    text = (tmp_path / "domain.pddl").read_text()
+    assert all("(not (" not in part.split(":effect")[0] for part in text.split("(:action")[1:])  # positive only
+    assert "(=" not in text and "forall" not in text and "exists" not in text
+    plan = solve(plain, plain_problem, planner="pyperplan")
+    assert plan
+    task = Task(plain, plain_problem)
+    s = task.initial_state
+    for step in plan:
+        (succ,) = task.distribution(s, step)
+        s = succ.state
+    assert task.goal_holds(s) and {parse_atom("(on a b)"), parse_atom("(on b c)")} <= s
+
+
+def test_unreachable_goal_warns_and_strict_refuses(tower_model, tmp_path, capsys):
+    args = ["export-domain", str(tower_model), "-o", str(tmp_path / "o"), "--goal", "(on o1 o1)",
+            "--determinize", "all-outcomes"]
+    capsys.readouterr()
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "warning: the goal cannot be reached" in err
+    assert main([*args, "--strict", "-o", str(tmp_path / "s")]) == 2
+    assert not (tmp_path / "s").exists()
+    assert main([*args[:4], "--goal", "(on o1 o2)", "--determinize", "all-outcomes", "--strict"]) == 0
+
+
+def test_determinisation_without_actions_warns(tmp_path, capsys):
+    """Rules whose outcomes change nothing (a model trained with too small a budget)."""
+    from groundsym.rules.io import write_rules
+    from groundsym.rules.model import Outcome, Rule, RuleSet
+
+    model = tmp_path / "m"
+    model.mkdir()
+    rs = RuleSet((Rule(parse_atom("(grab ?x)"), (), (Outcome(()),), (0.9,), 0.1),), ())
+    write_rules(model / "rules.json", rs, predicates={"held": 1}, primitives={"grab": 1})
+    from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace
+    write_symbolic_traces(model / "symbolic-traces.json", SymbolicDataset(
+        (SymbolicTrace(("o1",), (frozenset(), frozenset()), (parse_atom("(grab o1)"),), (0.0,)),),
+        {"held": 1}, {"grab": 1}))
+    capsys.readouterr()
+    args = ["export-domain", str(model), "-o", str(tmp_path / "o"), "--goal", "(held o1)", "--determinize", "most-likely"]
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert "warning: the most-likely determinisation has no actions" in err and "domain.pddl: 0 actions" in out
+    assert main([*args, "--strict"]) == 2
+
+
+@pytest.mark.parametrize("name", ["x) (:requirements", "9lives", "and", ""])
+def test_bad_names_are_refused_in_one_line(bw_model, tmp_path, capsys, name):
+    capsys.readouterr()
+    assert main(["export-domain", str(bw_model), "-o", str(tmp_path / "o"), "--name", name]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--name" in err
+    assert main(["export-domain", str(bw_model), "-o", str(tmp_path / "o"), "--rename", f"on={name}"]) == 2
+
+
+def test_rename_model_and_export(bw_model, tmp_path, capsys):
+    import shutil
+
+    model = tmp_path / "model"
+    shutil.copytree(bw_model, model)
+    before = (model / "rules.json").read_text()
+    assert main(["rename", str(model), "on=stacked", "holding=inhand"]) == 0
+    rules, meta = read_rules(model / "rules.json")
+    assert "stacked" in meta["predicates"] and "on" not in meta["predicates"]
+    assert {l.atom.predicate for r in rules.rules for l in r.context} <= {"stacked", "inhand", "clear", "handempty",
+                                                                          "ontable"}
+    # renaming back gives the same rules document
+    assert main(["rename", str(model), "stacked=on", "inhand=holding"]) == 0
+    assert (model / "rules.json").read_text() == before
+    # one export only: the model itself is unchanged
+    assert main(["export-domain", str(model), "-o", str(tmp_path / "o"), "--rename", "on=stacked"]) == 0
+    domain, problem = load(tmp_path / "o" / "domain.ppddl", tmp_path / "o" / "problem.ppddl")
+    assert domain.predicate("stacked") is not None and domain.predicate("on") is None
+    assert (model / "rules.json").read_text() == before
+    capsys.readouterr()
+    for bad in (["nothere=x"], ["on=clear"], ["on=stack"]):     # unknown, taken by a predicate, an action
+        assert main(["rename", str(model), *bad]) == 2
+        assert capsys.readouterr().err.count("\n") == 1
+    assert (model / "rules.json").read_text() == before
