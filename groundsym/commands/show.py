@@ -65,12 +65,32 @@ def run(args: argparse.Namespace) -> int:
         print(f"\nagainst the ground truth of {args.against}:")
         for m in matches:
             print("  " + str(m))
+        names = suggested_names(matches)
+        if names:
+            print(f"\nsuggested names: groundsym rename {args.model} " + " ".join(f"{k}={v}" for k, v in names.items()))
     if args.plot:
         if data is None:
             raise UserError(f"--plot: needs the training traces ({args.model}/traces.json) or --against TRACES")
         plot_symbols(symbols, *data, args.plot)
         print(f"wrote {args.plot}", file=sys.stderr)
     return 0
+
+
+def suggested_names(matches: list, good: float = 0.5) -> dict[str, str]:
+    """Symbol -> the relation it matches (same argument order, F1 >= ``good``), or ``not-<relation>``
+    when its negation matches better; a relation two symbols match goes to the better one."""
+    best: dict[str, tuple[float, str]] = {}
+    for m in matches:
+        options = []
+        if m.best_match and m.argument_order == "same" and m.f1 >= good:
+            options.append((m.f1, m.best_match))
+        if m.negation_of and (m.negation_f1 or 0) >= max(good, m.f1):
+            options.append((m.negation_f1, f"not-{m.negation_of}"))
+        if options:
+            f1, name = max(options)
+            if name != m.symbol and (name not in best or best[name][0] < f1):
+                best[name] = (f1, m.symbol)
+    return {sym: name for name, (_, sym) in sorted(best.items(), key=lambda kv: kv[1][1])}
 
 
 def _selective_dims(widths: np.ndarray, spread: np.ndarray) -> tuple[int, int]:
