@@ -8,7 +8,9 @@ throw. Ratios in the same run: the default sim against the same games with the e
 often the 1/240 s step gives the same pins down as 1/480 s on the same games (noise off), so the
 coarse step's accuracy is measured, not assumed.
 
-Usage: ``python benchmarks/bench_bowling.py [--games N] [--core K]``.
+Usage: ``python benchmarks/bench_bowling.py [--games N] [--core K]``;
+``--simple-play N`` instead measures what simple and random play score over N games (the table in
+docs/bowling.md, "What random and simple play score").
 """
 
 from __future__ import annotations
@@ -51,11 +53,50 @@ def report(label: str, cpu: float, steps: int, throws: int, timestep: float) -> 
     return rate
 
 
+def column_throw(sim: BowlingSim, scene) -> Atom:
+    """``throwRightOfCenter`` at the standing pin with the most standing pins in its column."""
+    standing = [o for o in scene.objects if Atom("upright", (o,)) in scene.truth] or list(scene.objects)
+    same = {o: sum(Atom("sameColumn", (o, p)) in scene.truth for p in standing) for o in standing}
+    return Atom("throwRightOfCenter", (max(standing, key=lambda o: (same[o], o)),))
+
+
+def simple_play(games: int) -> None:
+    """Pins down by simple and random play, ``games`` games each (seeds 0, 1, ...)."""
+    def head(sim: BowlingSim) -> str:
+        return sim.objects[sim.spots.index(1)]
+
+    plays = {
+        "one throwAtCenter at the head pin": (10, lambda sim, s, t: Atom("throwAtCenter", (head(sim),)), 1),
+        "one throwRightOfCenter at the head pin": (10, lambda sim, s, t: Atom("throwRightOfCenter", (head(sim),)), 1),
+        "throwRightOfCenter at the head pin, then the fullest column":
+            (10, lambda sim, s, t: Atom("throwRightOfCenter", (head(sim),)) if t == 0 else column_throw(sim, s), 2),
+    }
+    for label, (pins, choose, throws) in plays.items():
+        with BowlingSim(pins=pins) as sim:
+            scores = []
+            for g in range(games):
+                scene = sim.reset(g)
+                for t in range(throws):
+                    scene = sim.step(choose(sim, scene, t))
+                scores.append(scene.reward)
+        s = np.array(scores, dtype=float)
+        print(f"{label}: {s.mean():.2f} (sd {s.std(ddof=1):.2f}, standard error {s.std(ddof=1) / np.sqrt(len(s)):.2f}), "
+              f"strikes {int(np.sum(s == pins))}/{len(s)}")
+    for pins in (10, 5):
+        with BowlingSim(pins=pins) as sim:
+            _, _, scores = play(sim, games, seed=1000)
+        print(f"two random throws, {pins} pins: {np.mean(scores):.2f}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--games", type=int, default=40, help="games of 2 throws per setting (default 40)")
     ap.add_argument("--core", type=int, default=0, help="CPU core to pin the process to (default 0)")
+    ap.add_argument("--simple-play", type=int, default=0, metavar="N", help="measure simple play over N games instead")
     args = ap.parse_args()
+    if args.simple_play:
+        simple_play(args.simple_play)
+        return 0
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {args.core})
     g, throws = args.games, 2 * args.games

@@ -1,71 +1,103 @@
-"""Tower cell speed: primitives per second on one core, and where the time goes.
+"""Tower cell speed: primitives per CPU second on one core, side by side with another version.
 
-Runs random traces exactly as ``groundsym collect`` does and prints, from the same run:
-primitives per second (target: at least 5), physics steps per primitive, the world's raw stepping
-rate (the same world stepped with no controller), and the share of a primitive's time that is
-physics. ``python benchmarks/bench_sim.py [--traces N]``.
+Runs random traces exactly as ``groundsym collect`` does and prints, from the same run: primitives
+per CPU second of the process (target: at least 10; CPU time, not wall time, so other jobs on a
+shared machine count less), physics steps per primitive, the world's raw stepping rate (the same
+world stepped with no controller) and the share of a primitive's time that is physics; a reset is
+timed apart. With ``--against DIR`` (a checkout of another commit, e.g. a ``git worktree``) the same
+measurement runs on that code too, alternating rounds so both see the same machine load, and the
+ratio is printed::
+
+    git worktree add /tmp/cell-before <commit>
+    python benchmarks/bench_sim.py --traces 6 --rounds 2 --against /tmp/cell-before
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from groundsym.collect import trace_seeds  # noqa: E402
-from sims.tower import TowerSim  # noqa: E402
-
-TARGET = 5.0
-REFERENCE_RATE = 3000       # physics steps per second of a Panda world on one idle core here
+HERE = Path(__file__).resolve().parents[1]
+TARGET = 10.0
 
 
-def raw_step_rate(sim: TowerSim, n: int = 600) -> float:
-    """Physics steps per second of the same world, motors holding, no controller in the loop."""
-    sim.reset(0)
-    t = time.perf_counter()
-    sim.world.step(n)
-    return n / (time.perf_counter() - t)
+def measure(root: Path, traces: int, length: int) -> dict[str, float]:
+    """Random traces on the code under ``root`` (imported from there), timed on this process's CPU."""
+    sys.path.insert(0, str(root))
+    from groundsym.collect import trace_seeds
+    from sims.tower import TowerSim
+
+    steps = prims = 0
+    busy = resets = 0.0
+    with TowerSim() as sim:
+        for reset_seed, rng in trace_seeds(0, traces):
+            t0 = time.process_time()
+            sim.reset(reset_seed)
+            t1 = time.process_time()
+            sim.world.steps = 0
+            choices = sim.actions()
+            for _ in range(length):
+                sim.step(choices[int(rng.integers(len(choices)))])
+            busy += time.process_time() - t1
+            resets += t1 - t0
+            steps += sim.world.steps
+            prims += length
+        sim.reset(0)
+        t = time.process_time()
+        sim.world.step(600)
+        raw = 600 / (time.process_time() - t)
+    return {"prims": prims, "cpu": busy, "steps": steps, "raw": raw, "reset": resets / traces}
+
+
+def run_child(root: Path, traces: int, length: int) -> dict[str, float]:
+    """One measurement in a fresh process pinned to one core (imports must not mix two trees)."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(root), "--traces", str(traces),
+           "--length", str(length)]
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=str(root)).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def summary(label: str, runs: list[dict[str, float]]) -> float:
+    prims, cpu, steps = (sum(r[k] for r in runs) for k in ("prims", "cpu", "steps"))
+    raw = sum(r["raw"] for r in runs) / len(runs)
+    rate = prims / cpu
+    print(f"{label}: {int(prims)} random primitives in {cpu:.2f} CPU s -> {rate:.1f} primitives per CPU s "
+          f"({rate / TARGET:.2f}x the target of {TARGET:g}); {steps / prims:.0f} physics steps per primitive, "
+          f"raw stepping {raw:.0f} steps per CPU s (physics {steps / raw / cpu:.0%} of a primitive's time), "
+          f"reset {sum(r['reset'] for r in runs) / len(runs) * 1000:.0f} ms")
+    return rate
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--traces", type=int, default=6)
+    ap.add_argument("--traces", type=int, default=6, help="random traces per round")
     ap.add_argument("--length", type=int, default=10)
+    ap.add_argument("--rounds", type=int, default=1, help="alternating rounds per version")
+    ap.add_argument("--against", type=Path, default=None, metavar="DIR", help="also measure the code in DIR")
+    ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
-    with TowerSim() as sim:
-        steps = prims = 0
-        busy = resets = 0.0
-        for reset_seed, rng in trace_seeds(0, args.traces):
-            t0 = time.perf_counter()
-            sim.reset(reset_seed)
-            t1 = time.perf_counter()
-            sim.world.steps = 0
-            collect_trace_from_here(sim, args.length, rng)
-            busy += time.perf_counter() - t1
-            resets += t1 - t0
-            steps += sim.world.steps
-            prims += args.length
-        raw = raw_step_rate(sim)
-    rate = prims / busy
-    print(f"tower: {prims} random primitives in {busy:.2f} s -> {rate:.1f} primitives/s "
-          f"({rate / TARGET:.1f}x the target of {TARGET:g}/s)")
-    print(f"  {steps / prims:.0f} physics steps per primitive ({steps / busy:.0f} steps/s in primitives, "
-          f"raw stepping {raw:.0f} steps/s: physics is {steps / raw / busy:.0%} of a primitive's time)")
-    print(f"  reset (rebuild world, settle): {resets / args.traces * 1000:.0f} ms each")
-    ref = rate * REFERENCE_RATE / raw
-    print(f"  on a core stepping this world at {REFERENCE_RATE} steps/s (the issue's reference; this run: "
-          f"{raw:.0f}), that is {ref:.1f} primitives/s: the machine's load cancels out of this figure")
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+    if args.child:
+        print(json.dumps(measure(args.child, args.traces, args.length)))
+        return 0
+    versions = {"this code": HERE}
+    if args.against:
+        versions[f"{args.against}"] = args.against.resolve()
+    runs: dict[str, list] = {k: [] for k in versions}
+    for _ in range(args.rounds):
+        for label, root in versions.items():
+            runs[label].append(run_child(root, args.traces, args.length))
+    rates = {label: summary(label, r) for label, r in runs.items()}
+    if args.against:
+        mine, other = rates["this code"], rates[str(args.against)]
+        print(f"ratio this code / {args.against}: {mine / other:.2f}")
     return 0
-
-
-def collect_trace_from_here(sim: TowerSim, length: int, rng) -> None:
-    """Random primitives from the current scene (the reset is timed separately)."""
-    choices = sim.actions()
-    for _ in range(length):
-        sim.step(choices[int(rng.integers(len(choices)))])
 
 
 if __name__ == "__main__":

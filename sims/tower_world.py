@@ -213,13 +213,14 @@ class TowerWorld:
 
     # ------------------------------------------------------------------ moving the hand
 
-    def follow(self, q: np.ndarray, qd: np.ndarray, guard: Guard | None = None) -> str | None:
+    def follow(self, q: np.ndarray, qd: np.ndarray, guard: Guard | None = None, watch: bool = False) -> str | None:
         """Track the joint trajectory ``q`` (velocities ``qd``) step by step, then wait to arrive.
 
         With a ``guard``, the motion stops the first step the guard names a reason (the arm holds
-        where it is) and the reason is returned.
+        where it is) and the reason is returned. With ``watch`` (a transit) and :attr:`clearance`
+        set, the least distance to the objects is recorded.
         """
-        watch = self.clearance is not None and guard is not None and guard.__name__ == "transit"
+        watch = watch and self.clearance is not None
         for k in range(len(q)):
             self._command(q[k], qd[k])
             self.step()
@@ -246,17 +247,19 @@ class TowerWorld:
         evenly to ``yaw``). Raises :class:`IKError` when a point of the line has no solution."""
         knots, arc = self.kin.line(self.arm_q(), self.tcp(), np.asarray(end, dtype=float), self._hand_yaw(),
                                    yaw, spacing)
-        return self.follow(*trajectory(knots, arc, speed, TIME_STEP), guard)
+        return self.follow(*trajectory(knots, arc, speed, TIME_STEP), guard, watch=speed is TRANSIT)
 
     def go_home(self) -> None:
         """Up to the transit height, along a straight line to above home, and into the home pose."""
         here = self.tcp()
         safe = self._safe_z(self._hang())
+        hits = []
         if here[2] < safe - 0.005:
-            self.go(np.array([here[0], here[1], safe]), self._hand_yaw(), LIFT, TRANSIT_KNOTS,
-                    self._guard_transit())
+            hits.append(self.go(np.array([here[0], here[1], safe]), self._hand_yaw(), LIFT, TRANSIT_KNOTS,
+                                self._guard_transit()))
         home_tcp, _ = self.kin.fk(HOME_Q)
-        self.go(home_tcp, 0.0, TRANSIT, TRANSIT_KNOTS, self._guard_transit())
+        hits.append(self.go(home_tcp, 0.0, TRANSIT, TRANSIT_KNOTS, self._guard_transit()))
+        self.events["arm_collisions"] += sum(h is not None for h in hits)
         q0 = self.arm_q()
         arc = np.array([0.0, float(np.abs(HOME_Q - q0).max())])
         self.follow(*trajectory(np.vstack([q0, HOME_Q]), arc, Speed(1.5, 6.0), TIME_STEP))
@@ -272,9 +275,11 @@ class TowerWorld:
         return {b.uid for k, b in enumerate(self.bodies) if k not in skip}
 
     def _guard_transit(self, *skip: int | None) -> Guard:
-        """Any arm link, or the held object, touching an object (other than ``skip``) stops the arm."""
-        others = self._object_ids(self.held, *skip)
+        """Any arm link, or the held object, touching an object (other than ``skip``, or one it
+        touches already: a move may leave what it rests on) stops the arm."""
         held = None if self.held is None else self.bodies[self.held].uid
+        touching = {b for uid in (self.robot, held) if uid is not None for b, _, _ in self._touches(uid)}
+        others = self._object_ids(self.held, *skip) - touching
 
         def transit() -> str | None:
             hit = any(b in others for b, _, _ in self._touches(self.robot))
