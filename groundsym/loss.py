@@ -376,7 +376,7 @@ class Loss:
             if d < best:
                 best, hits = d, []
             hits.append((int(c), perm))
-        return best, hits
+        return best, sorted(hits, key=lambda h: h[0])   # by class, as the enumeration gives them
 
     def _class_distance(self, ka: bytes, kb: bytes, a: Encoded, b: Encoded,
                         threshold: float) -> tuple[float, np.ndarray | None]:

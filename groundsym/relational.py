@@ -405,39 +405,6 @@ def permuted_words(q: Encoded, which: np.ndarray | None = None) -> np.ndarray:
     return out
 
 
-def enumerate_distances(q: Encoded, cands: Sequence[Encoded],
-                        qwords: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Exact distances from ``q`` to many candidates at once by bit-parallel enumeration.
-
-    Every permutation of ``q`` is packed into 64-bit words once (``qwords``, from
-    :func:`permuted_words`, may be passed when cached); a candidate's distance is then the smallest
-    popcount of XORs over the permutations that respect the argument locks. Cost ``M! x
-    candidates`` word operations, independent of how dense the states are, which beats branch and
-    bound for small M (see :data:`ENUMERATE_MAX`). Ties go to the first permutation in
-    itertools order. Returns distances (inf where the primitive or the locks cannot match) and
-    perms (``q``'s object i -> ``perms[c, i]``).
-    """
-    n, m = len(cands), q.n_objects
-    if n == 0:
-        return np.zeros(0), np.zeros((0, m), dtype=np.int64)
-    sig = all_permutations(m)                                             # q_sigma[i] = q[sigma[i]]
-    qw = permuted_words(q) if qwords is None else qwords
-    cw = _words(np.stack([_flat_bits(c) for c in cands]))
-    dist = np.bitwise_count(qw[:, None, :] ^ cw[None, :, :]).sum(-1, dtype=np.int64)   # (P, C)
-    if q.lock.any() or any(c.lock.any() for c in cands):
-        base = np.int64(max(int(q.lock.max()), max(int(c.lock.max()) for c in cands)) + 1)
-        powers = base ** np.arange(m, dtype=np.int64)
-        qlock = (q.lock[sig] * powers).sum(1)
-        clock = np.array([(c.lock * powers).sum() for c in cands])
-        dist = np.where(qlock[:, None] == clock[None, :], dist, np.iinfo(np.int64).max)
-    best = dist.argmin(0)
-    d = dist[best, np.arange(n)].astype(float)
-    d[d >= np.iinfo(np.int64).max] = INF
-    d += np.array([float(np.sum(q.nullary != c.nullary)) for c in cands])
-    d[np.array([c.label != q.label for c in cands])] = INF
-    return d, np.argsort(sig[best], axis=1)
-
-
 def naive_state_distance(a: Encoded, b: Encoded) -> tuple[float, np.ndarray | None]:
     """Reference: enumerate every permutation (the paper's kernel); exact, ``O(M!)``."""
     if a.label != b.label:

@@ -13,12 +13,13 @@ import math
 import numpy as np
 import pytest
 
+from conftest import DATA
 from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.loss import Loss, LossConfig, LossTerms, _group_logmeanexp, active_columns, prepare, width_penalty
 from groundsym.relational import Encoded, naive_state_distance
 from groundsym.symbols import Symbol
-from groundsym.traces import Dataset, Trace
+from groundsym.traces import Dataset, Trace, read_traces
 from groundsym.world import Scene
 
 HOME = np.array([0.3, 0.0, 0.45])
@@ -230,38 +231,67 @@ def test_predict_mode_is_checked():
         LossConfig(predict="copy")
 
 
-@pytest.mark.parametrize("n_unary,n_binary", [(1, 1), (3, 3)])
-def test_enumerated_neighbours_match_branch_and_bound(monkeypatch, n_unary, n_binary):
-    """The batched bit-parallel search finds the same nearest classes as branch and bound."""
-    import groundsym.loss as loss_mod
+def _check_neighbours_against_enumeration(data, n_unary, n_binary, seed, evaluations, queries):
+    """Every lone class's nearest classes (distance, tie set, and a permutation attaining it)
+    against the naive enumeration of all permutations, over the classes of random symbol sets."""
     from groundsym.anneal import AnnealConfig, _random_symbol
-    from groundsym.relational import permutation_cost
+    from groundsym.relational import INF, permutation_cost
     from groundsym.symbols import binary_truth, unary_truth
-    data = prepare(kinematic_tower(6, seed=2))
-    rng = np.random.default_rng(3)
+    rng = np.random.default_rng(seed)
     cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary)
     compared = 0
-    for _ in range(6):
+    for _ in range(evaluations):
         syms = [_random_symbol(rng, 1, f"u{i}", data, cfg) for i in range(n_unary)] + \
                [_random_symbol(rng, 2, f"b{i}", data, cfg) for i in range(n_binary)]
         u = unary_truth(syms[:n_unary], data.features).astype(np.uint8)[data.pre]
         b = binary_truth(syms[n_unary:], data.pairs).astype(np.uint8)[data.pre]
         for lock, label in [(data.lock, data.label), (np.zeros_like(data.lock), np.zeros_like(data.label))]:
-            fast = Loss(data).neighbours(u, b, lock, label)
-            monkeypatch.setattr(loss_mod, "ENUMERATE_MAX", 0)
-            slow = Loss(data).neighbours(u, b, lock, label)
-            monkeypatch.undo()
-            assert fast.hits.keys() == slow.hits.keys()
-            compared += len(fast.hits)
-            for k, (d, hits) in fast.hits.items():
-                assert d == slow.hits[k][0]
-                assert [c for c, _ in hits] == sorted(c for c, _ in slow.hits[k][1])
-                i = fast.members[k][0]
-                q = Encoded(u[i][fast.perms[i]], b[i][fast.perms[i]][:, fast.perms[i]], np.zeros(0, np.uint8),
-                            lock[i][fast.perms[i]], int(label[i]))
-                for c, sigma in hits:   # each permutation reaches the distance
-                    j = fast.members[c][0]
-                    p = fast.perms[j]
-                    cand = Encoded(u[j][p], b[j][p][:, p], np.zeros(0, np.uint8), lock[j][p], int(label[j]))
-                    assert permutation_cost(q, cand, sigma) == d
-    assert compared >= 10
+            nb = Loss(data).neighbours(u, b, lock, label)
+
+            def rep(k):
+                i = nb.members[k][0]
+                p = nb.perms[i]
+                return Encoded(u[i][p], b[i][p][:, p], np.zeros(0, np.uint8), lock[i][p], int(label[i]))
+
+            lone = sorted(nb.hits)
+            for k in rng.choice(lone, size=min(queries, len(lone)), replace=False):
+                q = rep(k)
+                ref = np.array([naive_state_distance(q, rep(c))[0] if c != k else INF for c in range(len(nb.members))])
+                d, hits = nb.hits[k]
+                assert d == ref.min()
+                if d == INF:
+                    assert hits == []
+                    continue
+                assert [c for c, _ in hits] == np.flatnonzero(ref == d).tolist()
+                for c, sigma in hits:
+                    assert permutation_cost(q, rep(c), sigma) == d
+                compared += 1
+    return compared
+
+
+@pytest.mark.parametrize("n_unary,n_binary,evaluations,queries", [
+    (1, 1, 1, 3), pytest.param(1, 1, 4, 10, marks=pytest.mark.slow), pytest.param(3, 3, 3, 6, marks=pytest.mark.slow)])
+def test_enumerated_neighbours_match_the_naive_enumeration(n_unary, n_binary, evaluations, queries):
+    """7 objects (the paper's size) on real tower traces: the batched bit-parallel search."""
+    data = prepare(read_traces(DATA / "tower_16.json"))
+    assert _check_neighbours_against_enumeration(data, n_unary, n_binary, 3, evaluations, queries) >= 2 * evaluations
+
+
+@pytest.mark.parametrize("n_unary,n_binary,evaluations,queries", [
+    (2, 1, 1, 3), pytest.param(2, 1, 3, 10, marks=pytest.mark.slow)])
+def test_branch_and_bound_neighbours_match_the_naive_enumeration(monkeypatch, n_unary, n_binary, evaluations, queries):
+    """7 objects through branch and bound (which serves more than ENUMERATE_MAX objects)."""
+    import groundsym.loss as loss_mod
+    monkeypatch.setattr(loss_mod, "ENUMERATE_MAX", 0)
+    ds = read_traces(DATA / "tower_16.json")
+    if evaluations == 1:   # the fast run: 6 of the 16 traces (a whole pass of branch and bound is slow)
+        ds = Dataset(ds.traces[:6], ds.feature_names, ds.primitives, ds.meta)
+    data = prepare(ds)
+    assert _check_neighbours_against_enumeration(data, n_unary, n_binary, 4, evaluations, queries) >= 2 * evaluations
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cubes", [8, 10])
+def test_branch_and_bound_neighbours_match_enumeration_beyond_7_objects(cubes):
+    data = prepare(kinematic_tower(6, seed=2, n_cubes=cubes))
+    assert _check_neighbours_against_enumeration(data, 1, 1, 5, 1, 3) >= 2
