@@ -98,11 +98,16 @@ def main(argv: list[str] | None = None) -> int:
     env.close()
     print(f"atoms observed: {len(env.atoms)} ({', '.join(map(str, env.atoms[:4]))}, ...)")
     print(f"abstract states seen in training: {len(table.q)}")
-    print(f"greedy Q policy: mean value {np.mean(greedy):.4f} over {len(test)} test episodes")
-    print(f"random policy:   mean value {np.mean(random):.4f} over the same start states")
+    print(f"greedy Q policy: mean value {np.mean(greedy):.4f} +- {stderr(greedy):.4f} over {len(test)} test episodes")
+    print(f"random policy:   mean value {np.mean(random):.4f} +- {stderr(random):.4f} over the same start states")
     if args.plot:
         plot_curve(args.plot, curve, float(np.mean(random)))
     return 0
+
+
+def stderr(values: list[float]) -> float:
+    """Standard error of the mean (0 for a single value)."""
+    return float(np.std(values, ddof=1) / np.sqrt(len(values))) if len(values) > 1 else 0.0
 
 
 def plot_curve(path: str, curve: list[float], random_mean: float) -> None:
