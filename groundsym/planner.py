@@ -164,12 +164,15 @@ def unit_interval(text: str) -> float:
     return v
 
 
-def positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
-    """Wrap ``int``/``float`` so values below 1 (ints) or at most 0 (floats) are refused."""
+def positive(kind: Callable[[str], Any], most: float | None = None) -> Callable[[str], Any]:
+    """Wrap ``int``/``float`` so values below 1 (ints) or at most 0 (floats) are refused, and,
+    with ``most``, values above it (a size that would allocate terabytes is a typo, not a plan)."""
     def parse(text: str) -> Any:
         v = kind(text)
         if (kind is int and v < 1) or (kind is not int and v <= 0):
             raise ValueError("must be positive")
+        if most is not None and v > most:
+            raise ValueError(f"at most {most:g}")
         return v
     parse.__name__ = f"positive {kind.__name__}"
     return parse

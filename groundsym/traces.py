@@ -22,6 +22,7 @@ from .logic import Atom, parse_atom
 from .world import Scene
 
 SCHEMA = "groundsym.traces/1"
+MAX_MAGNITUDE = 1e12   # features and rewards beyond this overflow squares and sums in the loss
 
 
 @dataclass(eq=False)
@@ -126,11 +127,17 @@ class _Reader:
             raise self.fail(field, f"expected shape {want}, got {' x '.join(map(str, arr.shape)) or 'scalar'}")
         if not np.all(np.isfinite(arr)):
             raise self.fail(field, "contains NaN or infinite values")
+        if arr.size and np.abs(arr).max() > MAX_MAGNITUDE:
+            raise self.fail(field, f"a value of magnitude {np.abs(arr).max():.3g} (at most {MAX_MAGNITUDE:g}: "
+                                   f"larger ones overflow the arithmetic)")
         return arr
 
     def number(self, val: Any, field: str) -> float:
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
             raise self.fail(field, f"expected a finite number, got {val!r}")
+        if abs(val) > MAX_MAGNITUDE:
+            raise self.fail(field, f"{float(val):.3g} is beyond {MAX_MAGNITUDE:g} in magnitude (larger values "
+                                   f"overflow the arithmetic)")
         return float(val)
 
     def atom(self, val: Any, field: str, objects: set[str] | None = None,

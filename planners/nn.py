@@ -85,7 +85,7 @@ def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.G
 
 
 class _NNPlanner:
-    OPTIONS = (PlannerOption("depth", positive(int), DEPTH, "rewards summed into a state's value (paper: 4)"),
+    OPTIONS = (PlannerOption("depth", positive(int, most=1000), DEPTH, "rewards summed into a state's value (paper: 4)"),
                PlannerOption("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"),
                PlannerOption("k", positive(int), 3, "closest training states that compete by value "
                              "(ties with the k-th included)"))

@@ -451,8 +451,8 @@ class PradaPlanner:
     name = "prada"
     NEEDS = frozenset({"rules", "reward"})
     OPTIONS = (
-        PlannerOption("horizon", positive(int), 4, "look-ahead in primitives (libPRADA demos: 4)"),
-        PlannerOption("samples", positive(int), 500, "action sequences sampled per decision"),
+        PlannerOption("horizon", positive(int, most=100), 4, "look-ahead in primitives (libPRADA demos: 4)"),
+        PlannerOption("samples", positive(int, most=100_000), 500, "action sequences sampled per decision"),
         PlannerOption("gamma", unit_interval, None, "discount of the expected rewards (default: the task's, "
                       "e.g. the tower's 0.8; 0.95 as libPRADA on a PPDDL domain)"),
         PlannerOption("noise_softener", unit_interval, 0.2, "scales how much a rule's noise outcome "

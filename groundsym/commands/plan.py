@@ -14,9 +14,9 @@ from ..errors import UserError
 from ..fileio import atomic_write_json
 from ..planner import PlanningModel, make_planner
 from ..provenance import provenance
-from ..registry import get_planner_class, make_sim
+from ..registry import get_planner_class, get_sim_class, make_sim
 from ..sim import split_key_values, warn_if_older_cell
-from ._common import add_sim_args, output_path, positive_int, sim_options
+from ._common import add_sim_args, nonneg_int, output_path, positive_int, sim_options
 
 NAME = "plan"
 HELP = "run a planner step by step in a simulation (--sim) or on a PPDDL domain (--domain)"
@@ -38,10 +38,36 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=positive_int, help="primitives per episode (default: the sim's episode "
                    "length; 30 on a PPDDL domain)")
     p.add_argument("--episodes", type=positive_int, default=1, help="episodes to run (default 1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=nonneg_int, default=0)
     p.add_argument("-o", "--output", type=output_path, help="write the episode(s) as JSON")
     p.add_argument("--render-dir", help="write a PNG per step (simulation only)")
     p.add_argument("--quiet", action="store_true", help="print only the summary")
+
+
+def check_model_fits_sim(model: Any, sim: Any, where: str) -> None:
+    """A model learned in another cell (a tower model on bowling) is refused in one line: its
+    primitives and the features its symbols read must be the simulation's (class attributes, so
+    this runs before the physics engine starts)."""
+    if model is None:
+        return
+    prims = model.primitives
+    if prims and prims != dict(sim.primitives):
+        raise UserError(f"{where}: primitives {prims} are not those of --sim {sim.name} "
+                        f"{dict(sim.primitives)}: the model was learned in another simulation")
+    if model.symbols is not None:
+        model.symbols.check_features(sim.feature_names, f"{where}: symbols.json (--sim {sim.name})")
+
+
+def check_render_dir(text: str | None) -> None:
+    """--render-dir must be (or become) a directory, checked before any episode runs."""
+    if text is None:
+        return
+    path = Path(text)
+    for anc in (path, *path.parents):
+        if anc.exists():
+            if not anc.is_dir():
+                raise UserError(f"--render-dir {text}: {anc} is not a directory")
+            return
 
 
 def sim_planning_model(model: Any, sim: Any) -> PlanningModel:
@@ -74,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("give either --sim (with --model) or --domain (with --problem)")
     options = split_key_values(args.planner_opt, "--planner-opt")
     cls = get_planner_class(args.planner)
+    check_render_dir(args.render_dir)
     if args.sim is not None:
         episodes = _run_sim(args, cls, options)
     else:
@@ -103,6 +130,7 @@ def _run_sim(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> lis
     from ..modeldir import load_model
 
     model = load_model(args.model) if args.model else None
+    check_model_fits_sim(model, get_sim_class(args.sim), str(args.model))   # before the physics starts
     data = model and (model.symbolic_traces or model.traces)
     if data is not None:
         warn_if_older_cell(data.meta, str(args.model))
@@ -137,7 +165,7 @@ def _run_ppddl(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> l
     episodes = []
     for k, seed in enumerate(episode_seeds(args.seed, args.episodes)):
         planner = make_planner(args.planner, pm, options, seed)
-        ep = run_episode(env, planner, steps, seed, args.planner, _printer(args.quiet or args.episodes > 1))
+        ep = run_episode(env, planner, steps, seed, args.planner, _printer(args.quiet))
         episodes.append(ep)
         if not args.quiet:
             print(f"episode {k}: {'goal reached' if ep.success else 'goal not reached'} after "

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ..collect import collect_trace, trace_seeds
+from ..errors import UserError
 from ..registry import make_sim
 from ._common import add_sim_args, nonneg_int, positive_int, sim_options
 from ._common import writable_output
@@ -14,19 +16,31 @@ HELP = "draw a simulation's scene as a PNG"
 DESCRIPTION = (HELP + ". It shows the start state of the first trace that `groundsym collect` records with the "
                "same --seed and options, or with --steps K the scene after its first K random primitives.")
 ORDER = 11
+MAX_SIZE = 4096
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_sim_args(p)
     p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--steps", type=nonneg_int, default=0, help="random primitives to run first (default 0)")
-    p.add_argument("--width", type=positive_int, default=640, help="image width in pixels (default 640)")
-    p.add_argument("--height", type=positive_int, default=480, help="image height in pixels (default 480)")
+    p.add_argument("--width", type=image_size, default=640, help=f"image width in pixels (default 640, at most {MAX_SIZE})")
+    p.add_argument("--height", type=image_size, default=480,
+                   help=f"image height in pixels (default 480, at most {MAX_SIZE})")
     p.add_argument("-o", "--output", required=True, help="PNG file to write")
+
+
+def image_size(text: str) -> int:
+    """A side in pixels, 1 to MAX_SIZE: the software renderer's time and memory grow with the area."""
+    v = positive_int(text)
+    if v > MAX_SIZE:
+        raise argparse.ArgumentTypeError(f"at most {MAX_SIZE} pixels, got {v}")
+    return v
 
 
 def run(args: argparse.Namespace) -> int:
     out = writable_output(args.output)
+    if out.suffix.lower() != ".png":
+        raise UserError(f"{out}: render writes PNG images; give a file name ending in .png")
     sim = make_sim(args.sim, sim_options(args))
     try:
         reset_seed, rng = trace_seeds(args.seed, 1)[0]

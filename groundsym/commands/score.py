@@ -54,6 +54,7 @@ def _score_model_dir(model: Path, ds: SymbolicDataset, data: str) -> dict:
     from ..modeldir import load_model
 
     m = load_model(model)
+    check_vocabulary(m.predicates, m.primitives, set(), ds, data, model)
     rep = score_ruleset(m.rules, ds)
     rules = [{"rule": i + 1, "action": str(r.action), "context": [str(l) for l in r.context],
               "covers": rep.covers.get(i, 0)} for i, r in enumerate(m.rules.rules)]
@@ -61,13 +62,37 @@ def _score_model_dir(model: Path, ds: SymbolicDataset, data: str) -> dict:
 
 
 def _score_ppddl(path: Path, ds: SymbolicDataset, data: str) -> dict:
-    from ..ppddl.simulate import transition_model  # true transition probabilities of a PPDDL domain
+    from ..ppddl.parser import load
+    from ..ppddl.simulate import Task, transition_model  # true transition probabilities of a PPDDL domain
 
+    domain, _ = load(path)
+    probe = Task(domain, {})
+    types = {probe.type_predicate(t.name) for t in domain.types} | {"object"}
+    preds = {p.name: len(p.params) for p in domain.predicates} | {t: 1 for t in types}
+    check_vocabulary(preds, probe.primitives, types, ds, data, path)
     prob, names = transition_model(path, ds)
     rep = score_dataset(prob, ds, P_MIN)
     rules = [{"rule": str(key), "action": names.get(key, str(key)), "covers": n}
              for key, n in sorted(rep.covers.items(), key=lambda kv: str(kv[0]))]
     return _report_doc(rep, path, data, P_MIN, rules)
+
+
+def check_vocabulary(preds: dict[str, int], prims: dict[str, int], optional: set[str], ds: SymbolicDataset,
+                     data: str, model: Path) -> None:
+    """The data must speak the model's language: the same predicates (type predicates of a PPDDL
+    domain may be absent) and primitives the model knows, with the same arities. Scoring data
+    from another domain gives a number that means nothing, so it is refused."""
+    for kind, mine, theirs in (("predicates", preds, ds.predicates), ("primitives", prims, ds.primitives)):
+        if not mine:
+            continue
+        foreign = sorted(f"{n}/{k}" for n, k in theirs.items() if mine.get(n) != k)
+        absent = sorted(f"{n}/{k}" for n, k in mine.items() if n not in theirs and n not in optional) \
+            if kind == "predicates" else []
+        if foreign or absent:
+            what = (f"{', '.join(foreign)} not in the model" if foreign else "") + \
+                   ("; " if foreign and absent else "") + (f"{', '.join(absent)} missing" if absent else "")
+            raise UserError(f"{data}: {kind}: do not match those of {model} ({what}): "
+                            f"the data is from another domain")
 
 
 def _print(doc: dict) -> None:

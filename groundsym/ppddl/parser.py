@@ -10,12 +10,14 @@ A file may hold several ``define``s: IPPC-2008 problem files repeat their domain
 
 from __future__ import annotations
 
+import re
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
 from typing import Iterable, Mapping
 
 import lark
+import numpy as np
 
 from ..errors import UserError
 from ..fileio import read_text
@@ -216,10 +218,12 @@ def _domain(w: _Walker, tree: lark.Tree) -> Domain:
                       for s in _sections(tree, ["functions"]) for d in s.children)
     scope = _Scope(w, predicates, {c.name: c.type for c in constants}, types)
     actions: list[Action] = []
+    seen: set[str] = set()      # a set, not a scan of the list: 100k actions parse in linear time
     for a in _sections(tree, ["action"]):
         actions.append(_action(w, a, scope))
-        if sum(x.name == actions[-1].name for x in actions) > 1:
+        if actions[-1].name in seen:
             raise w.fail(a, f"action {actions[-1].name!r} is declared twice")
+        seen.add(actions[-1].name)
     return Domain(name, requirements, tuple(Typed(k, v) for k, v in types.items()), constants,
                   tuple(predicates.values()), tuple(actions), functions=functions)
 
@@ -274,11 +278,31 @@ def _raw_atom(tree: lark.Tree) -> Atom:
     return Atom(str(tree.children[0]), tuple(str(t) for t in tree.children[1:]))
 
 
+MAX_DEPTH = 200   # parentheses; real domains nest a few dozen deep, and the tree walk recurses per level
+
+
+def _check_depth(text: str, path: str) -> None:
+    """Refuse absurdly deep nesting in one line before the parser and the recursive tree walk meet
+    it (3,000 levels used to end in RecursionError). Linear in the text, comments ignored."""
+    if text.count("(") <= MAX_DEPTH:
+        return
+    plain = re.sub(r";[^\n]*", lambda m: " " * len(m.group()), text)
+    codes = np.frombuffer(plain.encode("utf-32-le"), dtype=np.uint32)
+    depth = np.cumsum((codes == ord("(")).astype(np.int32) - (codes == ord(")")))
+    deep = np.flatnonzero(depth > MAX_DEPTH)
+    if deep.size:
+        at = int(deep[0])
+        line = plain.count("\n", 0, at) + 1
+        col = at - plain.rfind("\n", 0, at)
+        raise PPDDLError(f"{path}:{line}:{col}: parentheses nested more than {MAX_DEPTH} deep")
+
+
 def parse_text(text: str, path: str | Path = "<string>",
                domains: Mapping[str, Domain] | None = None) -> tuple[list[Domain], list[Problem]]:
     """All domains and problems in ``text``; problems are checked against a domain of the same
     text or of ``domains`` (by its name) when one is known."""
     w = _Walker(str(path))
+    _check_depth(text, str(path))
     try:
         tree = _lark().parse(text)
     except lark.exceptions.LarkError as exc:
