@@ -33,7 +33,7 @@ from ..ppddl.parser import load
 from ..ppddl.simulate import Task
 from .atoms import AtomIndex, typed_atoms
 from .render import text_frame
-from .sim_env import frame_size, positive_steps, unseeded
+from .options import episode_seed, frame_size, positive_steps
 
 DEFAULT_STEPS = 30
 
@@ -77,7 +77,7 @@ class PPDDLGymEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
         super().reset(seed=seed)
-        self.world.reset(unseeded(self, seed), self.steps)
+        self.world.reset(episode_seed(self, seed), self.steps)
         self._t, self._last = 0, ""
         return self.index.vector(self.world.state), self._info()
 

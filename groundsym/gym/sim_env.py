@@ -33,37 +33,8 @@ from ..registry import make_sim, sim_names
 from ..symbols import SymbolSet
 from ..world import Scene
 from .abstract import ATOMS_KEY, SymbolObservation
+from .options import episode_seed, frame_size, positive_steps
 from .render import sim_frame
-
-SEED_RANGE = 2 ** 31     # seeds drawn for unseeded resets
-
-
-def positive_steps(steps: Any, where: str) -> int:
-    """The ``steps=`` option as a positive whole number (one clear line otherwise)."""
-    try:
-        value = int(steps)
-    except (TypeError, ValueError):
-        raise UserError(f"{where}: steps={steps!r}: expected a whole number") from None
-    if value != steps or value < 1:
-        raise UserError(f"{where}: steps={steps!r}: expected a whole number of at least 1")
-    return value
-
-
-def frame_size(render_mode: str | None, width: Any, height: Any) -> tuple[int, int]:
-    """The checked ``render_mode`` and frame size options, as ``(width, height)``."""
-    if render_mode not in (None, "rgb_array"):
-        raise UserError(f"render_mode={render_mode!r}: expected 'rgb_array' or None")
-    for key, value in (("render_width", width), ("render_height", height)):
-        if not isinstance(value, (int, np.integer)) or not 16 <= value <= 4096:
-            raise UserError(f"{key}={value!r}: expected a whole number of pixels between 16 and 4096")
-    return int(width), int(height)
-
-
-def unseeded(env: gymnasium.Env, seed: int | None) -> int:
-    """The seed of an episode: the one given, else one drawn from the environment's generator
-    (seeded by the last ``reset(seed=...)``, so a run of unseeded resets repeats too)."""
-    return int(seed) if seed is not None else int(env.np_random.integers(SEED_RANGE))
-
 
 class SimGymEnv(gymnasium.Env):
     """``SimGymEnv("tower", cubes=4)``; see the module docstring for spaces, rewards and ends."""
@@ -105,7 +76,7 @@ class SimGymEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         super().reset(seed=seed)
-        scene = self.sim.reset(unseeded(self, seed))
+        scene = self.sim.reset(episode_seed(self, seed))
         if tuple(scene.objects) != self.objects:
             raise UserError(f"{self.sim_name}: the objects changed between episodes "
                             f"({', '.join(scene.objects)}); observation spaces need a fixed set")
