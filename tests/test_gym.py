@@ -280,3 +280,12 @@ def test_ppddl_bad_input_is_one_line(tmp_path):
         gymnasium.make("groundsym/PPDDL-v0", domain=str(bad), problem=str(BW / "p01.ppddl"))
     with pytest.raises(UserError, match="render_mode='ansi'"):
         PPDDLGymEnv(BW / "domain.ppddl", BW / "p01.ppddl", render_mode="ansi")
+
+
+def test_a_domain_exported_from_rules_is_played_through_its_primitives():
+    """rules.ppddl names its actions closeHandAround_r1, ...; the agent sees the robot's primitives."""
+    tower = ROOT / "domains" / "reference" / "tower"
+    env = gymnasium.make("groundsym/PPDDL-v0", domain=str(tower / "rules.ppddl"), problem=str(tower / "p01.ppddl"))
+    objs = ("o1", "o2", "o3", "o4")
+    assert env.unwrapped.action_atoms == tuple(A(p, o) for p in ("closeHandAround", "openHandOver") for o in objs)
+    assert checked(env.unwrapped) == []
