@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -47,6 +48,17 @@ def tower_model(tmp_path_factory) -> Path:
     return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p02.ppddl", 2)
 
 
+@pytest.fixture(scope="module")
+def rbf_model(tmp_path_factory) -> Path:
+    """Symbols learned as RBFs from the tower cell's continuous traces (a short search: its
+    predicates carry the described-geometry comments a symbolic model has none of)."""
+    out = tmp_path_factory.mktemp("rbf") / "model"
+    data = Path(__file__).parent / "data" / "tower_small.json"
+    assert main(["learn", str(data), "-o", str(out), "--evals", "120", "--restarts", "1", "--workers", "1",
+                 "--quiet"]) == 0
+    return out
+
+
 def _numbered(rules):
     count: dict[str, int] = {}
     for r in rules:
@@ -78,14 +90,19 @@ def test_export_parses_back_to_the_models_rules(bw_model, tower_model, tmp_path,
             assert "/" not in "".join(l for l in text.splitlines() if ";" in l), f   # no paths in comments
 
 
-def test_exported_domains_parse_in_plado_and_our_parser(bw_model, tower_model, tmp_path):
-    """Several learned models, both noise modes, ADL and STRIPS determinisations."""
+def test_exported_domains_parse_in_plado_and_our_parser(bw_model, tower_model, rbf_model, tmp_path):
+    """Several learned models (two from symbolic data, one with RBF symbols learned from continuous
+    traces), both noise modes, ADL and STRIPS determinisations."""
     import plado.parser as pp
     from plado.semantics.task import Task as PladoTask
 
     runs = [(bw_model, ["--goal", "(on a b)", "--determinize", "all-outcomes"]),
             (bw_model, ["--noise", "pessimistic", "--determinize", "most-likely", "--strips"]),
-            (tower_model, ["--goal", "(on o1 o2)", "--determinize", "all-outcomes"])]
+            (tower_model, ["--goal", "(on o1 o2)", "--determinize", "all-outcomes"]),
+            (rbf_model, ["--determinize", "all-outcomes"]),
+            (rbf_model, ["--noise", "pessimistic", "--determinize", "all-outcomes", "--strips"])]
+    learned = json.loads((rbf_model / "symbols.json").read_text())["symbols"]
+    assert learned and all("centre" in s for s in learned)
     for i, (model, extra) in enumerate(runs):
         out = tmp_path / str(i)
         assert main(["export-domain", str(model), "-o", str(out), *extra]) == 0
@@ -94,6 +111,9 @@ def test_exported_domains_parse_in_plado_and_our_parser(bw_model, tower_model, t
             task = PladoTask(*pp.parse_and_normalize(str(out / d), str(out / p)))
             assert {a.name for a in task.actions} == {a.name.lower() for a in ours.actions}, (extra, d)
             assert len(problem.init) > 0
+        if model is rbf_model:              # the learned symbols' meanings reached the domain
+            text = (out / "domain.ppddl").read_text()
+            assert all(f"({s['name']} ?x1" in text for s in learned) and " cm" in text
 
 
 def test_derived_goal_is_the_best_state_in_the_data(bw_model, tmp_path):
