@@ -9,7 +9,10 @@ policy that knows the true state gets, to set the learned planners' share of the
 * with a cube in the hand, open the hand over the top of the target tower;
 * the target tower is the highest stack (ties: the one with the most big cubes), or a big cube on
   the table when there is no stack; it is re-read from the truth after every primitive, so the
-  policy recovers from failures at once.
+  policy recovers from failures at once;
+* a cube the hand failed to grasp is tried last until a grasp succeeds (the arm cannot reach down
+  to a cube beside a tall tower without touching the tower, and then stops; trying the same cube
+  again would fail the same way).
 
     python examples/tower_ceiling.py --episodes 30 [--sim-opt noise=0] [--out results/ceiling]
 """
@@ -47,8 +50,8 @@ def stacks(truth: frozenset, objects: tuple[str, ...]) -> list[list[str]]:
     return out
 
 
-def choose(truth: frozenset, objects: tuple[str, ...]) -> Atom:
-    """The scripted builder's next primitive (module docstring)."""
+def choose(truth: frozenset, objects: tuple[str, ...], failed: frozenset[str] = frozenset()) -> Atom:
+    """The scripted builder's next primitive (module docstring); ``failed``: cubes whose grasp failed."""
     big = {a.args[0] for a in truth if a.predicate == "big"}
     balls = {a.args[0] for a in truth if a.predicate == "ball"}
     held = [a.args[0] for a in truth if a.predicate == "inhand"]
@@ -61,15 +64,19 @@ def choose(truth: frozenset, objects: tuple[str, ...]) -> Atom:
     free = [s[-1] for s in stacks(truth, objects) if s[-1] not in in_target and s[-1] not in balls]
     if not free:                          # everything is one tower: nothing useful to do
         return Atom("openHandOver", (target[-1],))
-    free.sort(key=lambda o: (o not in big, o))
+    free.sort(key=lambda o: (o in failed, o not in big, o))
     return Atom("closeHandAround", (free[0],))
 
 
 def episode(sim: TowerSim, seed: int) -> float:
     scene = sim.reset(seed)
-    value = 0.0
+    value, failed = 0.0, set()
     for t in range(EPISODE_LENGTH):
-        scene = sim.step(choose(scene.truth, sim.objects))
+        action = choose(scene.truth, sim.objects, frozenset(failed))
+        scene = sim.step(action)
+        if action.predicate == "closeHandAround":
+            grasped = Atom("inhand", action.args) in scene.truth
+            failed = set() if grasped else failed | {action.args[0]}
         value += GAMMA ** t * scene.reward
     return value
 

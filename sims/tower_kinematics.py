@@ -53,6 +53,8 @@ IK_TOL = 5e-4                      # m: a solution must put the TCP this close t
 IK_GOAL = 5e-5                     # ... and the iteration stops once it is this close
 ORN_TOL = 1e-5                     # 1 - |<q, q_target>|: about 0.5 deg of hand tilt or turn
 IK_ROUNDS = 25                     # restarts from the previous solution at most
+MAX_KNOT_STEP = 0.4                # rad: a joint turning more than this between knots is a jump, not a path
+HOME_POSE = (0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785)
 
 
 class IKError(RuntimeError):
@@ -132,19 +134,40 @@ class ArmKinematics:
                           f"(residual {err * 1000:.2f} mm)")
         return q, err
 
+    def solve_elbow(self, pos: np.ndarray, yaw: float, elbow: tuple[float, float]) -> np.ndarray:
+        """A solution whose arm takes another posture for the same hand pose: the null-space solver
+        pulled towards the home pose with the base and upper-arm joints turned by ``elbow``, then
+        converged as :meth:`solve` does."""
+        rest = np.array(HOME_POSE)
+        rest[0] += elbow[0]
+        rest[2] += elbow[1]
+        lower, upper = [*ARM_LOWER, 0.0, 0.0], [*ARM_UPPER, 0.04, 0.04]
+        self._set(rest)
+        q = pb.calculateInverseKinematics(self.robot, TCP_LINK, list(map(float, pos)), list(down(yaw)),
+                                          lowerLimits=lower, upperLimits=upper,
+                                          jointRanges=[u - lo for lo, u in zip(lower, upper)],
+                                          restPoses=[*rest, 0.04, 0.04], maxNumIterations=200,
+                                          physicsClientId=self.client)
+        return self.solve(pos, yaw, np.array(q[:7]))[0]
+
     def line(self, seed: np.ndarray, start: np.ndarray, end: np.ndarray, yaw0: float, yaw1: float,
-             spacing: float) -> tuple[np.ndarray, np.ndarray]:
+             spacing: float, goal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Joint knots along the straight TCP line ``start -> end`` (yaw turning evenly), at most
         ``spacing`` apart, each solved from the previous; returns knots (K x 7) and the arc length
         of each knot. Between knots a 1 cm apart the joint-space interpolation leaves the line by
-        micrometres (the path's curvature in joint space is small at this scale)."""
+        micrometres (the path's curvature in joint space is small at this scale). With ``goal``
+        (joint angles solving ``end``), each knot is solved from the joint-space blend of the
+        previous knot and ``goal``, so the arm's posture moves evenly into the goal's."""
         length = float(np.linalg.norm(end - start))
         turn = abs(yaw1 - yaw0) * 0.1                  # a turn of 0.1 rad counts as 1 cm of path
         n = max(1, int(np.ceil(max(length, turn) / spacing)))
         fractions = np.linspace(0.0, 1.0, n + 1)
         knots = [np.asarray(seed, dtype=float)]
-        for f in fractions[1:]:
-            q, _ = self.solve(start + f * (end - start), yaw0 + f * (yaw1 - yaw0), knots[-1])
+        for i, f in enumerate(fractions[1:], 1):
+            guess = knots[-1] if goal is None else knots[-1] + (goal - knots[-1]) / (n + 1 - i)
+            q, _ = self.solve(start + f * (end - start), yaw0 + f * (yaw1 - yaw0), guess)
+            if np.abs(q - knots[-1]).max() > MAX_KNOT_STEP:
+                raise IKError(f"the arm's posture jumps between knots near {np.round(start + f * (end - start), 4).tolist()}")
             knots.append(q)
         return np.array(knots), fractions * max(length, turn)
 

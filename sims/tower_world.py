@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from .tower_kinematics import TCP_LINK, ArmKinematics, IKError, Speed, pb, pybullet_data, trajectory
+from .tower_kinematics import HOME_POSE, TCP_LINK, ArmKinematics, IKError, Speed, pb, pybullet_data, trajectory
 
 TIME_STEP = 1.0 / 120.0
 SUB_STEPS = 4
@@ -36,7 +36,8 @@ POSITION_GAIN = 0.2                # joint motors: position and velocity gains o
 VELOCITY_GAIN = 1.0
 FINGER_OPEN = 0.04                 # per finger (pads 7.2 cm apart when open)
 FINGER_FORCE = 40.0
-HOME_Q = np.array([0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785])
+HOME_Q = np.array(HOME_POSE)
+ELBOWS = ((0.6, -0.6), (-0.6, 0.6), (1.0, -1.0), (-1.0, 1.0))   # other arm postures tried for a clear pose
 TIP_BELOW_TCP = 0.013             # fingertips reach this far below the TCP
 TRANSIT_CLEARANCE = 0.05           # TCP transit height above the highest object (plus what hangs below)
 RELEASE_GAP = 0.012                # gap between a released object's bottom and the target's top
@@ -64,6 +65,15 @@ SETTLE_ANG = 0.1                   # rad/s
 SETTLE_STEPS = 240                 # 2 s: a primitive reads the scene after this at the latest
 
 Guard = Callable[[], "str | None"]
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One planned straight TCP move: joint knots, their arc lengths, the speed profile."""
+
+    knots: np.ndarray
+    arc: np.ndarray
+    speed: Speed
 
 
 @dataclass(frozen=True)
@@ -258,7 +268,11 @@ class TowerWorld:
             hits.append(self.go(np.array([here[0], here[1], safe]), self._hand_yaw(), LIFT, TRANSIT_KNOTS,
                                 self._guard_transit()))
         home_tcp, _ = self.kin.fk(HOME_Q)
-        hits.append(self.go(home_tcp, 0.0, TRANSIT, TRANSIT_KNOTS, self._guard_transit()))
+        try:                                   # the posture moves evenly into the home pose's ...
+            knots, arc = self.kin.line(self.arm_q(), self.tcp(), home_tcp, self._hand_yaw(), 0.0, TRANSIT_KNOTS, HOME_Q)
+        except IKError:                        # ... or, if that jumps, as the solver goes
+            knots, arc = self.kin.line(self.arm_q(), self.tcp(), home_tcp, self._hand_yaw(), 0.0, TRANSIT_KNOTS)
+        hits.append(self._run(Leg(knots, arc, TRANSIT), self._guard_transit()))
         self.events["arm_collisions"] += sum(h is not None for h in hits)
         q0 = self.arm_q()
         arc = np.array([0.0, float(np.abs(HOME_Q - q0).max())])
@@ -450,25 +464,60 @@ class TowerWorld:
                 best, best_gap = yaw, gap
         return float((best + np.pi / 2) % np.pi - np.pi / 2)    # the same grasp, turned least from home
 
-    def _clear_yaw(self, preferred: list[float], aim: np.ndarray, *skip: int | None) -> float:
-        """Of the hand yaws that grasp (or place) the same way, in order of preference, the first
-        whose arm pose at ``aim`` keeps ``ARM_CLEARANCE`` from every object but ``skip``, else
-        the clearest: the wrist and forearm swing with the yaw, and low next to a tall tower one
-        of them can touch its top. Checked on the kinematic copy with copies of the objects."""
+    def _approach(self, candidates: list[tuple[float, np.ndarray]], hover_z: float,
+                  *skip: int | None) -> tuple[float, list[Leg]]:
+        """Plan the transit to above the aim at ``hover_z`` and the vertical descent onto it, for
+        the first ``(hand yaw, aim)`` (yaws that grasp or place the same way, in order of
+        preference) whose whole path has IK solutions and whose arm keeps ``ARM_CLEARANCE`` from
+        every object but ``skip`` all along the descent; else the clearest plannable one; each in
+        the posture the solver goes to first, then in the other postures of ``ELBOWS``. Low next
+        to a tall tower, the wrist or forearm can otherwise touch its top. Checked on the
+        kinematic copy with copies of the objects. Raises :class:`IKError` if nothing works."""
         pos, orn = self.poses()
         self.kin.place([(b.shape, b.size, pos[k], orn[k]) for k, b in enumerate(self.bodies) if k not in skip])
-        best, best_gap = preferred[0], -np.inf
-        for yaw in preferred:
-            try:
-                q, _ = self.kin.solve(aim, yaw, HOME_Q)
-            except IKError:
-                continue
-            gap = self.kin.clearance(q)
-            if gap >= ARM_CLEARANCE:
-                return yaw
-            if gap > best_gap:
-                best, best_gap = yaw, gap
-        return best
+        best: tuple[float, float, list[Leg]] | None = None
+        for elbow in (None, *ELBOWS):
+            for yaw, aim in candidates:
+                hover = np.array([aim[0], aim[1], hover_z])
+                try:
+                    legs = self._plan_posture(hover, aim, yaw, elbow)
+                except IKError:
+                    continue
+                gap = min(self.kin.clearance(q) for q in legs[-1].knots[::-1])
+                if gap >= ARM_CLEARANCE:
+                    return yaw, legs
+                if best is None or gap > best[0]:
+                    best = (gap, yaw, legs)
+        if best is None:
+            raise IKError(f"no hand yaw reaches {np.round(candidates[0][1], 4).tolist()}")
+        return best[1], best[2]
+
+    def _plan_posture(self, hover: np.ndarray, aim: np.ndarray, yaw: float,
+                      elbow: tuple[float, float] | None) -> list[Leg]:
+        """Transit to ``hover`` and descent to ``aim``: from here as the solver goes (``elbow``
+        None), or ending in the arm posture ``elbow`` (see :meth:`ArmKinematics.solve_elbow`)."""
+        if elbow is None:
+            return self._plan([(hover, TRANSIT, TRANSIT_KNOTS), (aim, DESCENT, FINE_KNOTS)], yaw)
+        q_aim = self.kin.solve_elbow(aim, yaw, elbow)
+        if self.kin.clearance(q_aim) < ARM_CLEARANCE:
+            raise IKError("this posture does not clear the objects either")
+        q_hover, _ = self.kin.solve(hover, yaw, q_aim)
+        transit = self.kin.line(self.arm_q(), self.tcp(), hover, self._hand_yaw(), yaw, TRANSIT_KNOTS, q_hover)
+        descent = self.kin.line(transit[0][-1], hover, aim, yaw, yaw, FINE_KNOTS, q_aim)
+        return [Leg(*transit, TRANSIT), Leg(*descent, DESCENT)]
+
+    def _plan(self, moves: list[tuple[np.ndarray, Speed, float]], yaw: float) -> list[Leg]:
+        """Joint knots of consecutive straight TCP moves (end, speed, knot spacing) from here."""
+        q, p, y = self.arm_q(), self.tcp(), self._hand_yaw()
+        legs = []
+        for end, speed, spacing in moves:
+            knots, arc = self.kin.line(q, p, end, y, yaw, spacing)
+            legs.append(Leg(knots, arc, speed))
+            q, p, y = knots[-1], end, yaw
+        return legs
+
+    def _run(self, leg: Leg, guard: Guard) -> str | None:
+        return self.follow(*trajectory(leg.knots, leg.arc, leg.speed, TIME_STEP), guard, watch=leg.speed is TRANSIT)
 
     @staticmethod
     def _turns(yaw: float) -> list[float]:
@@ -487,10 +536,6 @@ class TowerWorld:
         b = self.bodies[self.held]
         z = pb.getBasePositionAndOrientation(b.uid, physicsClientId=self.client)[0][2]
         return max(TIP_BELOW_TCP, float(self.tcp()[2] - z + b.size / 2))
-
-    def _descend(self, aim: np.ndarray, yaw: float, guard: Guard) -> str | None:
-        """Straight down to ``aim``: quickly, then slowly over the last 4 cm, guarded."""
-        return self.go(aim, yaw, DESCENT, FINE_KNOTS, guard)
 
     def _finish(self) -> None:
         """Home, then wait for the world to settle (counted when it does not in time)."""
@@ -529,11 +574,13 @@ class TowerWorld:
             return
         aim = pos[index] + offset
         aim[2] = max(aim[2], TIP_BELOW_TCP + 0.003)
-        yaw = self._clear_yaw(self._turns(self._yaw_of(index)), aim, index)
+        yaw, (transit, descent) = self._approach([(y, aim) for y in self._turns(self._yaw_of(index))],
+                                                 self._safe_z(TIP_BELOW_TCP), index)
         self._set_fingers(FINGER_OPEN)
-        if self._over(aim, yaw, self._safe_z(TIP_BELOW_TCP)):
+        if self._run(transit, self._guard_transit()):
+            self.events["arm_collisions"] += 1
             return
-        hit = self._descend(aim, yaw, self._guard_grasp(index))
+        hit = self._run(descent, self._guard_grasp(index))
         if hit == "arm":
             self.events["arm_collisions"] += 1
             return
@@ -576,16 +623,24 @@ class TowerWorld:
             shift = self.tcp() - pos[self.held]
             aim = np.array([pos[index, 0], pos[index, 1], top + self.bodies[self.held].size / 2 + RELEASE_GAP]) + offset
             hang = self._hang()
-        aim[2] = max(aim[2], hang + 0.003)
-        yaw = self._clear_yaw(self._turns(here), aim + shift, index, self.held)
-        c, s = np.cos(yaw - here), np.sin(yaw - here)   # the offset turns with the hand
-        aim += np.array([c * shift[0] - s * shift[1], s * shift[0] + c * shift[1], shift[2]])
-        if self._over(aim, yaw, max(self._safe_z(hang), aim[2] + 0.02)):
-            return
+        candidates = []
+        for yaw in self._turns(here):              # the TCP's offset from the held object turns with the hand
+            c, s = np.cos(yaw - here), np.sin(yaw - here)
+            tcp_aim = aim + np.array([c * shift[0] - s * shift[1], s * shift[0] + c * shift[1], shift[2]])
+            tcp_aim[2] = max(tcp_aim[2], hang + 0.003)
+            candidates.append((yaw, tcp_aim))
+        hover_z = max(self._safe_z(hang), candidates[0][1][2] + 0.02)
         if self.held is None:
+            _, (transit, _) = self._approach(candidates, hover_z, index)
+            if self._run(transit, self._guard_transit()):
+                self.events["arm_collisions"] += 1
+            return
+        yaw, (transit, descent) = self._approach(candidates, hover_z, index, self.held)
+        if self._run(transit, self._guard_transit()):
+            self.events["arm_collisions"] += 1
             return
         released = self.held
-        if self._descend(aim, yaw, self._guard_release(index)) == "arm":
+        if self._run(descent, self._guard_release(index)) == "arm":
             self.events["arm_collisions"] += 1
         self.open_fingers()                    # the grasp constraint still holds it: a clean release
         self.release()

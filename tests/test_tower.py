@@ -15,7 +15,7 @@ from groundsym.traces import read_traces
 from sims.tower import GAMMA, MIN_GAP, REGION_X, REGION_Y, TowerSim, optimal_episode_value
 from sims.tower_kinematics import ArmKinematics, down
 from sims.tower_optimum import best_plan, ground_plan
-from sims.tower_world import HOME_Q, TCP_LINK, TIP_BELOW_TCP, TowerWorld, pb
+from sims.tower_world import DESCENT, HOME_Q, TCP_LINK, TIP_BELOW_TCP, TRANSIT, TowerWorld, pb
 
 from conftest import DATA
 
@@ -199,12 +199,16 @@ def test_ik_converges_over_the_start_region_and_every_grasp_and_release_height()
 
 @pytest.fixture()
 def tcp_lines(monkeypatch):
-    """Every straight TCP move of the controller: (guard name, commanded start, end, TCP per step)."""
+    """Every straight TCP move of the controller (a guarded joint trajectory): guard name, the
+    commanded line's start and end (forward kinematics of the first and last joint targets), and
+    the TCP at every physics step."""
     lines = []
-    go = TowerWorld.go
+    follow = TowerWorld.follow
 
-    def recording_go(self, end, yaw, speed, spacing, guard=None):
-        start, path = self.tcp(), []
+    def recording_follow(self, q, qd, guard=None, watch=False):
+        if guard is None:                       # the last joint move into the home pose
+            return follow(self, q, qd, guard, watch)
+        path = []
         step = self.step
 
         def step_and_record(n=1):
@@ -212,12 +216,12 @@ def tcp_lines(monkeypatch):
             path.append(self.tcp())
         self.step = step_and_record
         try:
-            return go(self, end, yaw, speed, spacing, guard)
+            return follow(self, q, qd, guard, watch)
         finally:
             del self.step
-            lines.append((getattr(guard, "__name__", None), start, np.asarray(end, float), np.array(path)))
+            lines.append((guard.__name__, self.kin.fk(q[0])[0], self.kin.fk(q[-1])[0], np.array(path)))
 
-    monkeypatch.setattr(TowerWorld, "go", recording_go)
+    monkeypatch.setattr(TowerWorld, "follow", recording_follow)
     return lines
 
 
@@ -264,7 +268,7 @@ def test_an_arm_link_touching_another_object_stops_the_motion(exact, monkeypatch
     """A grasp of cube a aimed 2 cm beside the centre of cube b (motor noise as large as their
     distance), with the yaw choice that keeps the arm clear switched off: a finger meets b's top,
     the arm stops, nothing is grasped, b is not pushed, and the collision is counted."""
-    monkeypatch.setattr(TowerWorld, "_clear_yaw", lambda self, preferred, aim, *skip: preferred[0])
+    monkeypatch.setattr(TowerWorld, "_turns", staticmethod(lambda yaw: [yaw]))
     s = exact.reset(3)
     w = exact.world
     a, b = 0, 1
@@ -336,9 +340,10 @@ def test_a_hand_yaw_that_keeps_the_arm_clear_of_a_tall_tower(exact):
     aim = exact.scene().features[target, :3]
     w.kin.place([(b.shape, b.size, *[p[k] for p in w.poses()]) for k, b in enumerate(w.bodies) if k != target])
     first = w._turns(w._yaw_of(target))[0]
-    assert w.kin.clearance(w.kin.solve(aim, first, HOME_Q)[0]) < 0.005
-    chosen = w._clear_yaw(w._turns(w._yaw_of(target)), aim, target)
-    assert chosen != first and w.kin.clearance(w.kin.solve(aim, chosen, HOME_Q)[0]) >= 0.01
+    legs = w._plan([(aim + np.array([0, 0, 0.1]), TRANSIT, 0.05), (aim, DESCENT, 0.01)], first)
+    assert w.kin.clearance(legs[-1].knots[-1]) < 0.005
+    chosen, legs = w._approach([(y, aim) for y in w._turns(w._yaw_of(target))], aim[2] + 0.1, target)
+    assert chosen != first and w.kin.clearance(legs[-1].knots[-1]) >= 0.01
     before = w.events["arm_collisions"]
     s = exact.step(A(*steps[8]))
     assert A("inhand", steps[8][1]) in s.truth and w.events["arm_collisions"] == before
