@@ -127,7 +127,8 @@ class TowerWorld:
                                          physicsClientId=c)
         pb.createMultiBody(0, floor, floor_vis, (0, 0, FLOOR_Z - floor_half[2]), physicsClientId=c)
         self.robot = pb.loadURDF("franka_panda/panda.urdf", (0, 0, 0), useFixedBase=True,
-                                 flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c)
+                                 flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_ENABLE_CACHED_GRAPHICS_SHAPES,
+                                 physicsClientId=c)
         for j, q in zip(ARM_JOINTS, HOME_Q):
             pb.resetJointState(self.robot, j, q, physicsClientId=c)
         for j in FINGER_JOINTS:
