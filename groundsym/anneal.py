@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 import os
+import signal
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -305,6 +306,14 @@ def _init_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> Non
     _WORKER["cfg"] = cfg
 
 
+def _init_pool_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> None:
+    """A pool process ignores SIGINT: Ctrl-C reaches the whole process group, and only the main
+    process should act on it (stop the pool, keep the checkpoint); workers that died of it left
+    the pool waiting for them forever."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _init_worker(data, loss_cfg, cfg)
+
+
 def _work(job: tuple[str, Any]) -> RestartState:
     kind, arg = job
     loss, cfg = _WORKER["loss"], _WORKER["cfg"]
@@ -336,7 +345,7 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    pool = ctx.Pool(workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else None
+    pool = ctx.Pool(workers, _init_pool_worker, (data, loss_cfg, cfg)) if workers > 1 else None
     if pool is None:
         _init_worker(data, loss_cfg, cfg)
     run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])
@@ -352,6 +361,12 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
                 break
             for new in run(_work, [("advance", s) for s in todo]):
                 states[new.index] = new
+    except BaseException:        # Ctrl-C or an error: stop the workers now, the checkpoint stays
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+            pool = None
+        raise
     finally:
         if pool is not None:
             pool.close()

@@ -46,7 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    try:
+        parser = build_parser()          # imports every command (numpy, scipy...): a second or two
+    except KeyboardInterrupt:
+        print("groundsym: interrupted", file=sys.stderr)
+        return 130
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help(sys.stderr)
@@ -57,8 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"groundsym {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_status
-    except KeyboardInterrupt:
-        print(f"groundsym {args.command}: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:   # a command may say what was kept (e.g. a checkpoint to resume)
+        detail = f"; {exc}" if str(exc) else ""
+        fresh = "\r\x1b[K" if sys.stderr.isatty() else ""   # over a progress bar's unfinished line
+        print(f"{fresh}groundsym {args.command}: interrupted{detail}", file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 1

@@ -305,7 +305,21 @@ def run(args: argparse.Namespace) -> int:
         return _export(model, args)
 
 
-def _export(model: Model, args: argparse.Namespace) -> int:
+@dataclass(frozen=True)
+class Export:
+    """What ``export-domain`` writes, before it is written (the report shows the same domain)."""
+
+    domain: Domain
+    problem: Problem
+    dropped: tuple[str, ...]
+    objects: tuple[str, ...]
+    goal: tuple[Literal, ...]
+    goal_note: str
+
+
+def build_export(model: Model, args: argparse.Namespace) -> Export:
+    """The domain and problem of ``model`` (``args``: scene, goal, noise, name), checked to read
+    back as the model's rules."""
     if not model.rules.rules:
         raise UserError(f"{args.model}: rules.json holds no rules (only default rules): nothing to export")
     predicates = dict(model.predicates)
@@ -338,6 +352,13 @@ def _export(model: Model, args: argparse.Namespace) -> int:
                       None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
                       comment=f"initial state: {source}\n{goal_note}")
     _check_round_trip(model, domain, problem, dropped)
+    return Export(domain, problem, tuple(dropped), objects, tuple(goal), goal_note)
+
+
+def _export(model: Model, args: argparse.Namespace) -> int:
+    ex = build_export(model, args)
+    domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
+                                                          ex.goal_note)
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")

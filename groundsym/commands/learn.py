@@ -115,6 +115,16 @@ def check_options(args: argparse.Namespace) -> str:
 
 def run(args: argparse.Namespace) -> int:
     schema = check_options(args)
+    try:
+        return _learn_model(schema, args)
+    except KeyboardInterrupt:    # the CLI prints this as its one 'interrupted' line, exit 130
+        kept = (f"the search state is in {args.checkpoint}; the same command resumes it" if args.checkpoint
+                else "give --checkpoint FILE to keep the search state and resume")
+        raise KeyboardInterrupt(f"{args.output} unchanged; {kept}") from None
+
+
+def _learn_model(schema: str, args: argparse.Namespace) -> int:
+    """Everything after the checks, into a staging folder that replaces the model directory whole."""
     out: Path = args.output
     with model_transaction(out) as stage:
         if schema == SYMBOLIC_SCHEMA:

@@ -100,14 +100,19 @@ def _selective_dims(widths: np.ndarray, spread: np.ndarray) -> tuple[int, int]:
 
 def plot_symbols(symbols: SymbolSet, features: np.ndarray, pairs: np.ndarray, path: Path,
                  max_points: int = 4000) -> None:
+    """Write :func:`symbols_png` to ``path`` (atomically)."""
+    from ..fileio import atomic_write_bytes
+
+    atomic_write_bytes(path, symbols_png(symbols, features, pairs, max_points))
+
+
+def symbols_png(symbols: SymbolSet, features: np.ndarray, pairs: np.ndarray, max_points: int = 4000) -> bytes:
     """One panel per symbol over its two most selective dimensions: data coloured by the symbol's
-    truth, and the activation boundary g = 0.5 (other dimensions at the centre)."""
+    truth, and the activation boundary g = 0.5 (other dimensions at the centre). A PNG."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Ellipse
-
-    from ..fileio import atomic_write_bytes
 
     n = max(len(symbols.symbols), 1)
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4), squeeze=False)
@@ -137,4 +142,4 @@ def plot_symbols(symbols: SymbolSet, features: np.ndarray, pairs: np.ndarray, pa
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
+    return buf.getvalue()

@@ -1,0 +1,117 @@
+"""Ctrl-C: ``learn`` stops at once (workers ignore SIGINT, the main process stops the pool), keeps
+its checkpoint and the old model directory, prints one line and exits 130; the same command then
+resumes, and the result equals an uninterrupted run's (docs/reliability.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import DATA, ROOT
+
+LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts", "2", "--workers", "2",
+         "--unary", "1", "--binary", "1", "--seed", "5", "--quiet"]
+
+
+def groundsym(args: list[str], **kw) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.Popen([sys.executable, "-m", "groundsym.cli", *args], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+
+
+def interrupt_after(args: list[str], delay: float, after: Path | None = None) -> tuple[int, str]:
+    """Run, then Ctrl-C as a terminal sends it: SIGINT to the whole process group, ``delay``
+    seconds after the start (or after the file ``after`` appears)."""
+    p = groundsym(args)
+    while after is not None and not after.exists() and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(delay)
+    if p.poll() is None:
+        os.killpg(p.pid, signal.SIGINT)
+    try:
+        _, err = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:     # the bug this guards against: a pool waiting forever
+        os.killpg(p.pid, signal.SIGKILL)
+        pytest.fail(f"learn did not stop within 60 s of SIGINT ({args})")
+    return p.returncode, err
+
+
+def symbols_doc(model: Path) -> dict:
+    doc = json.loads((model / "symbols.json").read_text())
+    doc.pop("provenance")                # the command line names another -o; nothing else may differ
+    return doc
+
+
+def check_interrupted(rc: int, err: str, out: Path, checkpoint: Path) -> None:
+    if rc == 0:                          # the run had finished before the signal came
+        return
+    assert rc == 130, err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert "interrupted" in err and str(checkpoint) in err
+    assert not out.exists()              # no half-written model
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(f".{out.name}.")]
+
+
+def test_an_interrupt_stops_the_pool_and_keeps_the_checkpoint(tmp_path):
+    """In-process: KeyboardInterrupt after the first round (as SIGINT in the main process raises
+    it) terminates the worker pool at once, and the checkpoint resumes to the uninterrupted result."""
+    from groundsym.anneal import AnnealConfig, anneal
+    from groundsym.loss import LossConfig, prepare
+    from tests.test_loss import kinematic_tower
+
+    data = prepare(kinematic_tower(4, seed=3))
+    cfg = AnnealConfig(evals=40, restarts=2, chunk=5)
+    ck = tmp_path / "ck.json"
+
+    def stop(done, total, best):
+        if done > 0:
+            raise KeyboardInterrupt
+
+    t = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        anneal(data, LossConfig(), cfg, seed=2, workers=2, checkpoint=ck, report=stop)
+    assert time.monotonic() - t < 30 and ck.exists()
+    saved = json.loads(ck.read_text())["restarts"]
+    assert 0 < sum(r["done"] for r in saved) < cfg.evals
+    resumed = anneal(data, LossConfig(), cfg, seed=2, workers=2, checkpoint=ck)
+    whole = anneal(data, LossConfig(), cfg, seed=2, workers=1)
+    assert resumed.terms == whole.terms and resumed.evaluations == whole.evaluations == cfg.evals
+    assert [s.to_doc() for s in resumed.symbols] == [s.to_doc() for s in whole.symbols]
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_learn_at_once_with_one_line(tmp_path):
+    out, ck = tmp_path / "M", tmp_path / "ck.json"
+    t = time.monotonic()
+    rc, err = interrupt_after([*LEARN, "-o", str(out), "--checkpoint", str(ck)], 0.2, after=ck)
+    assert rc == 130 and time.monotonic() - t < 30, err
+    check_interrupted(rc, err, out, ck)
+
+
+@pytest.mark.slow
+def test_interrupted_at_20_random_moments_each_resume_equals_the_uninterrupted_run(tmp_path):
+    whole = tmp_path / "whole"
+    t = time.monotonic()
+    p = groundsym([*LEARN, "-o", str(whole)])
+    _, err = p.communicate(timeout=900)
+    assert p.returncode == 0, err
+    span = time.monotonic() - t
+    want = symbols_doc(whole)
+    rng = np.random.default_rng(15)
+    for k, delay in enumerate(rng.uniform(1.0, span, 20)):
+        out, ck = tmp_path / f"M{k}", tmp_path / f"ck{k}.json"
+        args = [*LEARN, "-o", str(out), "--checkpoint", str(ck)]
+        rc, err = interrupt_after(args, float(delay))
+        check_interrupted(rc, err, out, ck)
+        p = groundsym(args)
+        _, err = p.communicate(timeout=900)
+        assert p.returncode == 0, err
+        assert symbols_doc(out) == want, f"resumed after SIGINT at {delay:.2f} s differs"
