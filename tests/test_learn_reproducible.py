@@ -70,7 +70,10 @@ def test_workers_do_not_change_the_symbols(uninterrupted, tmp_path):
 
 def _interrupt(cmd: list[str], checkpoint: Path, sig: int, after_done: int) -> None:
     """Start ``cmd``, wait until its checkpoint records ``after_done`` evaluations, send ``sig``."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # SIGINT's default action (KeyboardInterrupt) even when this test runs where it is ignored (a
+    # background job), since a child inherits an ignored SIGINT and Python then keeps ignoring it
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 600
     try:
         while time.time() < deadline and proc.poll() is None:
@@ -83,7 +86,7 @@ def _interrupt(cmd: list[str], checkpoint: Path, sig: int, after_done: int) -> N
             time.sleep(0.05)
         assert proc.poll() is None, "the run ended before it could be interrupted"
         os.kill(proc.pid, sig)
-        proc.wait(timeout=120)
+        assert proc.wait(timeout=120) == (130 if sig == signal.SIGINT else -sig)
     finally:
         if proc.poll() is None:
             proc.kill()

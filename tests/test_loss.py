@@ -9,11 +9,12 @@ against them.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import DATA
+DATA = Path(__file__).resolve().parent / "data"
 from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.loss import Loss, LossConfig, LossTerms, _group_logmeanexp, active_columns, prepare, width_penalty
