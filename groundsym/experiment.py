@@ -297,11 +297,43 @@ def _units(out: Path, cfg: EvalConfig, runs: int) -> list[dict[str, Any]]:
         for N in cfg.symbol_data:
             p = unit_path(out, N, r)
             if p.exists():
-                u = read_json(p)
-                if u.get("config") != cfg.fingerprint():
-                    raise UserError(f"{p}: config: from an evaluation with other options")
-                units.append(u)
+                units.append(check_unit(read_json(p), p, cfg, N, r))
     return units
+
+
+def check_unit(u: Any, path: Path, cfg: EvalConfig, n_symbol: int, run: int) -> dict[str, Any]:
+    """A finished unit's record as ``aggregate`` reads it; a damaged one is one line naming the field."""
+    def fail(field: str, msg: str) -> UserError:
+        return UserError(f"{path}: {field}: {msg}")
+
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+    if not isinstance(u, dict):
+        raise fail("document", "expected a JSON object")
+    if u.get("config") != cfg.fingerprint():
+        raise fail("config", "from an evaluation with other options")
+    for key, want in (("symbol_data", n_symbol), ("run", run)):
+        if u.get(key) != want or isinstance(u.get(key), bool):
+            raise fail(key, f"expected {want} (the file's name), got {u.get(key)!r}")
+    entries = u.get("entries")
+    if not isinstance(entries, list):
+        raise fail("entries", "expected a list")
+    for i, e in enumerate(entries):
+        if not (isinstance(e, dict) and isinstance(e.get("method"), str) and number(e.get("mean"))
+                and isinstance(e.get("model_traces"), int) and not isinstance(e.get("model_traces"), bool)):
+            raise fail(f"entries[{i}]", "expected method (text), model_traces (whole number) and mean (a number)")
+    report = u.get("report", {})
+    grounding = report.get("grounding") if isinstance(report, dict) else None
+    if not isinstance(report, dict) or not isinstance(grounding, (list, type(None))):
+        raise fail("report", "expected an object with an optional grounding list")
+    for i, g in enumerate(grounding or []):
+        ok = isinstance(g, dict) and all(isinstance(g.get(k), (str, type(None))) for k in
+                                         ("best_match", "negation_match")) \
+            and all(g.get(k) is None or number(g.get(k)) for k in ("f1", "negation_f1"))
+        if not ok:
+            raise fail(f"report.grounding[{i}]", "expected best_match/negation_match names and f1 numbers")
+    return u
 
 
 def _status(out: Path, cfg: EvalConfig, runs: int) -> str:
