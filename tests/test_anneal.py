@@ -1,6 +1,8 @@
 """Simulated annealing: determinism, worker independence, checkpoint resume, pruning, and (slow) that
 it finds the intended symbols of the kinematic fixture world."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -31,6 +33,28 @@ def test_result_does_not_depend_on_workers(data):
     assert one.evaluations == 120
     other = anneal(data, LossConfig(), cfg, seed=6, workers=1)
     assert other.terms != one.terms or not np.array_equal(other.candidate[0].centre, one.candidate[0].centre)
+
+
+def test_result_does_not_depend_on_where_rounds_end(data):
+    """Rounds of 500, 37 or 1 evaluations draw the same moves: a swap (two evaluations) at a round's
+    last evaluation is made, not turned into a re-seed."""
+    runs = [anneal(data, LossConfig(), AnnealConfig(evals=300, restarts=2, chunk=chunk), seed=4)
+            for chunk in (500, 37, 1)]
+    for other in runs[1:]:
+        _same(runs[0], other)
+        assert other.evaluations == 300
+
+
+def test_proposals_use_the_change_tolerance_the_data_was_prepared_with():
+    """New symbols centre on objects a primitive moved by more than the loss's ``change_tol``."""
+    from groundsym.anneal import _points
+    from groundsym.traces import read_traces
+    ds = read_traces(Path(__file__).resolve().parent / "data" / "tower_16.json")   # real jitter: small moves
+    loose, strict = prepare(ds, LossConfig(change_tol=0.01)), prepare(ds, LossConfig(change_tol=2.0))
+    assert (loose.change_tol, strict.change_tol) == (0.01, 2.0)
+    moved_loose = _points(loose, loose.change_tol)[2]
+    moved_strict = _points(strict, strict.change_tol)[2]
+    assert len(moved_strict) < len(moved_loose)
 
 
 def test_best_is_the_best_of_all_restarts_and_really_scores_that(data):
