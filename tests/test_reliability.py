@@ -204,3 +204,33 @@ def test_evaluate_validates_before_writing_config(tmp_path, capsys, bad, message
     good = experiment.EvalConfig(sim="tower", methods=("random",), symbol_data=(20,), model_traces=(1,))
     experiment._check_config(out, good)
     assert json.loads((out / "config.json").read_text())["fingerprint"] == good.fingerprint()
+
+
+# ----------------------------------------------------------------------------- smaller items
+def test_learn_quiet_is_quiet(data, tmp_path, capsys):
+    assert main(["learn", str(data), "-o", str(tmp_path / "M"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""           # the rule-learning bars too
+
+
+def test_simulate_checks_its_output_before_the_domain(tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    (tmp_path / "bad.ppddl").write_text("(define (domain")
+    assert cli(["simulate", "--domain", str(tmp_path / "bad.ppddl"), "-o", str(tmp_path / "file" / "x.json")]) == 2
+    one_line_error(capsys, "x.json: cannot write", "file is a file, not a directory")
+
+
+@pytest.mark.parametrize("goal, message", [("", "--goal: expected literals"),
+                                           ("(on a b) (not (on a b))", "(on a b) is both required and forbidden")])
+def test_export_refuses_empty_and_contradictory_goals(model, tmp_path, capsys, goal, message):
+    assert main(["export-domain", str(model), "-o", str(tmp_path / "o"), "--goal", goal]) == 2
+    one_line_error(capsys, message)
+    assert not (tmp_path / "o").exists()
+
+
+def test_re_export_without_determinize_leaves_no_stale_pddl(model, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["export-domain", str(model), "-o", str(out), "--determinize", "all-outcomes",
+                 "--goal", "(on a b)"]) == 0
+    assert (out / "domain.pddl").exists() and (out / "problem.pddl").exists()
+    assert main(["export-domain", str(model), "-o", str(out), "--goal", "(on b a)"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["domain.ppddl", "problem.ppddl"]

@@ -168,6 +168,9 @@ def parse_goal(text: str, predicates: dict[str, int], objects: tuple[str, ...]) 
         if any(is_variable(x) or x not in objects for x in a.args):
             raise UserError(f"--goal: {t} names an object that is not in the scene ({', '.join(objects)})")
         out.append(lit)
+    clash = {l.atom for l in out if l.positive} & {l.atom for l in out if not l.positive}
+    if clash:
+        raise UserError(f"--goal: {min(map(str, clash))} is both required and forbidden: no state reaches this goal")
     return out
 
 
@@ -331,7 +334,7 @@ def build_export(model: Model, args: argparse.Namespace) -> Export:
     objects, state, source = initial_state(model, args.scene)
     for a in state:                       # a scene file may know predicates no rule uses
         predicates.setdefault(a.predicate, a.arity)
-    if args.goal:
+    if args.goal is not None:            # --goal "" is a mistake to report, not a request for the default
         goal, goal_note = parse_goal(args.goal, predicates, objects), "goal: given with --goal"
     else:
         goal, goal_note = derived_goal(model, objects)
@@ -372,6 +375,9 @@ def _export(model: Model, args: argparse.Namespace) -> int:
         plain_note = f"; domain.pddl: {len(plain_d.actions)} actions"
     for name, text in files.items():
         atomic_write_text(out / name, text)
+    for stale in ("domain.pddl", "problem.pddl"):   # from an earlier export with --determinize: would mislead
+        if stale not in files and (out / stale).is_file():
+            (out / stale).unlink()
     if args.determinize and "problem.pddl" not in files:
         print(f"{out}: problem.pddl not written: {goal_note}", file=sys.stderr)
     left = f", {len(dropped)} rule(s) that can never apply or change nothing left out" if dropped else ""

@@ -17,7 +17,7 @@ from ..ppddl.simulate import Task, simulate_traces
 from ..progress import Progress
 from ..provenance import provenance
 from ..symbolic_traces import write_symbolic_traces
-from ._common import nonneg_int, output_path, positive_int
+from ._common import nonneg_int, output_path, positive_int, writable_output
 
 NAME = "simulate"
 HELP = "sample random symbolic traces from a PPDDL domain and problem"
@@ -50,6 +50,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    writable_output(args.output)         # a typo in -o fails before the domain is parsed and sampled
     domain, problem = load(args.domain, args.problem)
     if problem is None:
         raise UserError(f"{args.domain}: holds no problem; give --problem")
