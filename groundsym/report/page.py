@@ -70,12 +70,13 @@ def img(png: bytes, alt: str) -> str:
     return f'<img src="{png_uri(png)}" alt="{esc(alt)}">'
 
 
-def table(header: Sequence[str], rows: Iterable[Sequence[str]], numeric: Sequence[int] = ()) -> str:
-    """An HTML table; ``rows`` hold HTML already escaped; columns in ``numeric`` align right."""
-    head = "".join(f"<th>{esc(h)}</th>" for h in header)
+def table(header: Sequence[str] | None, rows: Iterable[Sequence[str]], numeric: Sequence[int] = ()) -> str:
+    """An HTML table; ``rows`` hold HTML already escaped; columns in ``numeric`` align right; no
+    header row when ``header`` is None."""
+    head = "".join(f"<th>{esc(h)}</th>" for h in header or ())
     body = "".join("<tr>" + "".join(f'<td class="num">{c}</td>' if i in numeric else f"<td>{c}</td>"
                                     for i, c in enumerate(row)) + "</tr>" for row in rows)
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    return f"<table>{f'<thead><tr>{head}</tr></thead>' if head else ''}<tbody>{body}</tbody></table>"
 
 
 def page(title: str, subtitle: str, sections: Sequence[Section]) -> str:

@@ -52,7 +52,7 @@ def overview(model: Model, export: Export) -> Section:
             ("training transitions", str(sds.n_transitions) if sds is not None else "unknown"),
             ("PPDDL domain", f"{len(export.domain.actions)} actions over {len(export.objects)} objects"
              + (f"; {len(export.dropped)} rule(s) left out" if export.dropped else ""))]
-    body = table(("", ""), rows)
+    body = table(None, rows)
     body += ('<p class="note">Read from top to bottom: what each predicate means, how well it matches the '
              "simulator's ground truth, how the actions change the predicates (rules), what the reward "
              "pays for, and the planning domain a PPDDL planner reads.</p>")
