@@ -311,7 +311,19 @@ def _init_pool_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -
     process should act on it (stop the pool, keep the checkpoint); workers that died of it left
     the pool waiting for them forever."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # blocked by _start_pool while forking
     _init_worker(data, loss_cfg, cfg)
+
+
+def _start_pool(ctx: Any, workers: int, data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> Any:
+    """The worker pool, with SIGINT held back while it forks: a Ctrl-C that lands in Python's fork
+    handlers is dropped (the run went on) and one in a half-started worker killed it; held back,
+    it reaches the main process once the pool stands, and the workers, already ignoring it, never."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        return ctx.Pool(workers, _init_pool_worker, (data, loss_cfg, cfg))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _work(job: tuple[str, Any]) -> RestartState:
@@ -345,7 +357,7 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    pool = ctx.Pool(workers, _init_pool_worker, (data, loss_cfg, cfg)) if workers > 1 else None
+    pool = _start_pool(ctx, workers, data, loss_cfg, cfg) if workers > 1 else None
     if pool is None:
         _init_worker(data, loss_cfg, cfg)
     run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
+import signal
 import sys
 from types import ModuleType
 
@@ -45,9 +46,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _build_parser_uninterrupted() -> argparse.ArgumentParser:
+    """The parser, with Ctrl-C held back while it imports every command (numpy, scipy, pybullet: a
+    second or two). A SIGINT inside some extension's import code was swallowed (the command then
+    ran to the end) or made Python kill itself at exit; held back, it arrives right after, here."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        return build_parser()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
-        parser = build_parser()          # imports every command (numpy, scipy...): a second or two
+        parser = _build_parser_uninterrupted()
     except KeyboardInterrupt:
         print("groundsym: interrupted", file=sys.stderr)
         return 130

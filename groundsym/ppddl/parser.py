@@ -31,10 +31,13 @@ class PPDDLError(UserError):
     """A PPDDL file that does not parse or does not make sense; the message names file:line:column."""
 
 
-@lru_cache(maxsize=1)
-def _lark() -> lark.Lark:
+@lru_cache(maxsize=2)
+def _lark(positions: bool = False) -> lark.Lark:
+    """The parser; with ``positions`` every tree node knows its line and column. That nearly
+    doubles the time of a large file, so files are read without, and a file whose content is
+    wrong is read again with positions to say where (parse_text)."""
     grammar = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
-    return lark.Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    return lark.Lark(grammar, parser="lalr", propagate_positions=positions, maybe_placeholders=False)
 
 
 _TOKEN_NAMES = {"LPAR": "'('", "RPAR": "')'", "NAME": "a name", "VARIABLE": "a ?variable",
@@ -301,12 +304,19 @@ def parse_text(text: str, path: str | Path = "<string>",
                domains: Mapping[str, Domain] | None = None) -> tuple[list[Domain], list[Problem]]:
     """All domains and problems in ``text``; problems are checked against a domain of the same
     text or of ``domains`` (by its name) when one is known."""
-    w = _Walker(str(path))
     _check_depth(text, str(path))
     try:
         tree = _lark().parse(text)
     except lark.exceptions.LarkError as exc:
         raise _syntax_error(exc, str(path)) from None
+    try:
+        return _walk(tree, str(path), domains)
+    except PPDDLError:                   # the same error again, now with its line and column
+        return _walk(_lark(positions=True).parse(text), str(path), domains)
+
+
+def _walk(tree: lark.Tree, path: str, domains: Mapping[str, Domain] | None) -> tuple[list[Domain], list[Problem]]:
+    w = _Walker(path)
     known = dict(domains or {})
     out_d: list[Domain] = []
     out_p: list[Problem] = []
