@@ -58,6 +58,7 @@ class Episode:
     steps: tuple[Step, ...]
     final_state: tuple[str, ...] | None
     success: bool | None = None
+    dead_end: bool = False      # the planner proved the goal unreachable and stopped the episode
 
     @property
     def value(self) -> float:
@@ -69,7 +70,8 @@ class Episode:
                 "steps": [{"t": s.t, "state": list(s.state) if s.state is not None else None,
                            "action": s.action, "expected_value": _finite(s.expected_value),
                            "reward": s.reward, "info": s.info} for s in self.steps],
-                "final_state": list(self.final_state) if self.final_state is not None else None}
+                "final_state": list(self.final_state) if self.final_state is not None else None,
+                "dead_end": self.dead_end}
 
 
 def _finite(x: float) -> float | None:
@@ -163,14 +165,21 @@ class SymbolicEnv:
 
 def run_episode(env: Any, planner: Any, steps: int, seed: int, name: str = "",
                 on_step: Callable[[Step], None] | None = None) -> Episode:
-    """Run ``steps`` primitives (fewer if a goal is reached) and record everything."""
+    """Run ``steps`` primitives (fewer if a goal is reached) and record everything.
+
+    The episode also ends when the planner's decision says ``dead_end`` in its info (it proved the
+    goal unreachable from here): nothing it could run would help."""
     obs = env.reset(seed, steps)
     start_reward = env.start_reward()
     record: list[Step] = []
+    dead_end = False
     for t in range(steps):
         if env.done() or not obs.actions:     # goal reached, or a dead end: nothing can be run
             break
         decision: Decision = planner.choose(obs)
+        if decision.info.get("dead_end"):
+            dead_end = True
+            break
         nxt, reward = env.step(decision.action, t + 1, steps - t - 1)
         planner.observe(decision.action, nxt)
         step = Step(t, _state_text(obs.state), str(decision.action), float(decision.expected_value),
@@ -181,7 +190,7 @@ def run_episode(env: Any, planner: Any, steps: int, seed: int, name: str = "",
         obs = nxt
     success = getattr(env, "success", None)
     return Episode(name or getattr(planner, "name", "?"), seed, env.gamma, start_reward, tuple(record),
-                   _state_text(obs.state), success)
+                   _state_text(obs.state), success, dead_end)
 
 
 def _plain(info: Any) -> dict:
@@ -240,7 +249,7 @@ def ppddl_world(domain: Any, problem: Any, where: str = "problem") -> tuple[Symb
     task = Task(domain, problem)
 
     def actions(state: frozenset) -> list[Atom]:
-        return [a for a in task.primitive_actions() if task.is_applicable(state, a)]
+        return task.applicable_primitives(state)
 
     def successor(state: frozenset, action: Atom, rng: np.random.Generator) -> tuple[frozenset, float]:
         dist = task.distribution(state, action)

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import UserError
 from ..logic import Atom, Literal
 from ..symbolic_traces import SymbolicDataset, SymbolicTrace
-from .ast import (OBJECT, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
+from .ast import (OBJECT, TRUE as TRUE_F, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
                   Or, Probabilistic, Problem, RewardEffect, Typed, When)
 from .convert import primitive_of
 
@@ -63,7 +63,10 @@ class Task:
         self._parents = parents
         self._actions = {a.name: a for a in domain.actions}
         self._primitives = _primitive_table(domain)
+        self._primitive_of = {a: (name, n) for name, (n, acts) in self._primitives.items() for a in acts}
         self._ground_cache: dict[str, list[tuple[str, ...]]] = {}
+        self._compiled: dict[Atom, _GroundAction | None] = {}
+        self._index: tuple[dict[Atom, list[_GroundAction]], list[_GroundAction]] | None = None
 
     # ------------------------------------------------------------------ objects and types
     def objects_of(self, tname: str) -> tuple[str, ...]:
@@ -145,18 +148,53 @@ class Task:
         if any(self.objects.get(x) is None or not _is_a(self.objects[x], p.type, self._parents)
                for x, p in zip(action.args, a.parameters)):
             return False
-        return self.holds(a.precondition, state, dict(zip((p.name for p in a.parameters), action.args)))
+        ga = self.ground(action)
+        return ga is not None and ga.applicable(self, state)
+
+    def ground(self, action: Atom) -> "_GroundAction | None":
+        """The compiled ground action (precondition and effect with the arguments substituted,
+        equality decided, ``forall`` effects expanded); None when equality alone rules it out.
+        Built once per ground action: this is what makes a simulator step cheap."""
+        if action not in self._compiled:
+            self._compiled[action] = _GroundAction.build(self, action)
+        return self._compiled[action]
 
     def outcomes(self, state: frozenset, action: Atom) -> list[Successor]:
         """The distribution over successors of an applicable ground PPDDL action (merged, sorted)."""
-        a = self.action(action.predicate)
-        binding = dict(zip((p.name for p in a.parameters), action.args))
+        ga = self.ground(action)
+        if ga is None:
+            return []
         merged: dict[tuple[frozenset, float], float] = {}
-        for p, adds, dels, r in self._effect(a.effect, state, binding):
+        for p, adds, dels, r in ga.deltas(self, state):
             if p > 0:
                 key = ((state - dels) | adds, r)
                 merged[key] = merged.get(key, 0.0) + p
         return sorted((Successor(p, s, r) for (s, r), p in merged.items()), key=lambda x: (sorted(x.state), x.reward))
+
+    def applicable_actions(self, state: frozenset) -> list[Atom]:
+        """Every applicable ground PPDDL action, sorted. Ground actions are indexed by one atom
+        their precondition needs, so a step looks only at those whose trigger holds."""
+        triggered, always = self._trigger_index()
+        seen: list[_GroundAction] = list(always)
+        for atom in state:
+            seen.extend(triggered.get(atom, ()))
+        return sorted(ga.atom for ga in seen if ga.applicable(self, state))
+
+    def _trigger_index(self) -> tuple[dict[Atom, list["_GroundAction"]], list["_GroundAction"]]:
+        if self._index is None:
+            triggered: dict[Atom, list[_GroundAction]] = {}
+            always: list[_GroundAction] = []
+            for a in self.domain.actions:
+                for args in self.groundings(a.name):
+                    ga = self.ground(Atom(a.name, args))
+                    if ga is None:
+                        continue
+                    if ga.pos:
+                        triggered.setdefault(min(ga.pos), []).append(ga)
+                    else:
+                        always.append(ga)
+            self._index = (triggered, always)
+        return self._index
 
     def _effect(self, e: Effect, state: frozenset, b: Mapping[str, str]) -> list[Outcome]:
         if isinstance(e, Literal):
@@ -188,14 +226,26 @@ class Task:
         return {name: n for name, (n, _) in sorted(self._primitives.items())}
 
     def primitive_actions(self) -> list[Atom]:
-        """Every ground primitive allowed by the parameter types, with distinct arguments, sorted.
+        """Every ground primitive allowed by the parameter types, sorted.
 
-        Repeated arguments (``(stack c c)``) are left out: NID rules bind injectively, and no robot
-        puts a block on itself."""
+        Repeated arguments (``(put-on-block b1 b1)``) are offered wherever the domain allows them:
+        a primitive is left out only when its action's precondition says ``(not (= ?x ?y))`` for
+        two of the primitive's own parameters at the top level (as domains exported from NID rules
+        do: rules bind injectively)."""
         out: set[Atom] = set()
         for name, (n, actions) in self._primitives.items():
             for aname in actions:
-                out.update(Atom(name, args[:n]) for args in self.groundings(aname) if len(set(args[:n])) == n)
+                apart = _distinct_pairs(self.action(aname), n)
+                out.update(Atom(name, args[:n]) for args in self.groundings(aname)
+                           if not any(args[i] == args[j] for i, j in apart))
+        return sorted(out)
+
+    def applicable_primitives(self, state: frozenset) -> list[Atom]:
+        """The primitives that can run in ``state`` (sorted): what a robot, or an episode, may try."""
+        out = set()
+        for ga in self.applicable_actions(state):  # (ga: a ground PPDDL action atom)
+            name, n = self._primitive_of[ga.predicate]
+            out.add(Atom(name, ga.args[:n]))
         return sorted(out)
 
     def _instances(self, state: frozenset, prim: Atom) -> list[Atom]:
@@ -208,9 +258,9 @@ class Task:
             params = self.action(aname).parameters
             extra = params[n:]
             for tail in self._groundings(extra):
-                ga = Atom(aname, prim.args + tuple(tail))
-                if self.applicable(state, ga):
-                    found.append(ga)
+                ga = self.ground(Atom(aname, prim.args + tuple(tail)))
+                if ga is not None and ga.applicable(self, state):
+                    found.append(ga.atom)
         return found
 
     def is_applicable(self, state: frozenset, prim: Atom) -> bool:
@@ -246,6 +296,123 @@ class Task:
 
 
 _NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)
+_FALSE = Or(())
+
+
+class _GroundAction:
+    """One ground PPDDL action, compiled: a precondition that is a conjunction of ground literals
+    becomes two atom sets (``pos`` must hold, ``neg`` must not); any other precondition keeps its
+    ground formula. The effect is ground too; without ``when`` its outcomes do not depend on the
+    state and are computed once."""
+
+    __slots__ = ("atom", "pos", "neg", "formula", "effect", "fixed")
+
+    def __init__(self, atom: Atom, pos: frozenset, neg: frozenset, formula: Formula | None, effect: Effect,
+                 fixed: list[Outcome] | None) -> None:
+        self.atom, self.pos, self.neg, self.formula, self.effect, self.fixed = atom, pos, neg, formula, effect, fixed
+
+    @staticmethod
+    def build(task: "Task", action: Atom) -> "_GroundAction | None":
+        a = task.action(action.predicate)
+        if len(a.parameters) != action.arity or any(
+                task.objects.get(x) is None or not _is_a(task.objects[x], p.type, task._parents)
+                for x, p in zip(action.args, a.parameters)):
+            return None
+        b = dict(zip((p.name for p in a.parameters), action.args))
+        pre = _ground_formula(a.precondition, b)
+        if pre == _FALSE:
+            return None
+        lits = _literals(pre)
+        pos = frozenset(x for x, positive in lits if positive) if lits is not None else frozenset()
+        neg = frozenset(x for x, positive in lits if not positive) if lits is not None else frozenset()
+        effect = _ground_effect(task, a.effect, b)
+        fixed = task._effect(effect, frozenset(), {}) if not _has_when(effect) else None
+        return _GroundAction(action, pos, neg, None if lits is not None else pre, effect, fixed)
+
+    def applicable(self, task: "Task", state: frozenset) -> bool:
+        if self.formula is not None:
+            return task.holds(self.formula, state)
+        return self.pos <= state and self.neg.isdisjoint(state)
+
+    def deltas(self, task: "Task", state: frozenset) -> list[Outcome]:
+        return self.fixed if self.fixed is not None else task._effect(self.effect, state, {})
+
+
+def _ground_formula(f: Formula, b: Mapping[str, str]) -> Formula:
+    """``f`` with ``b`` substituted and equalities between constants decided (True: ``(and)``,
+    False: ``(or)``); quantifiers stay (their variables are not in ``b``)."""
+    if isinstance(f, Atom):
+        g = f.substitute(b)
+        if g.predicate == "=" and g.is_ground():
+            return TRUE_F if g.args[0] == g.args[1] else _FALSE
+        return g
+    if isinstance(f, Not):
+        x = _ground_formula(f.arg, b)
+        return _FALSE if x == TRUE_F else TRUE_F if x == _FALSE else Not(x)
+    if isinstance(f, (And, Or)):
+        parts = [_ground_formula(g, b) for g in f.args]
+        absorbing, unit = (_FALSE, TRUE_F) if isinstance(f, And) else (TRUE_F, _FALSE)
+        if absorbing in parts:
+            return absorbing
+        kept = tuple(x for x in parts if x != unit)
+        return kept[0] if len(kept) == 1 else type(f)(kept)
+    if isinstance(f, Imply):
+        return _ground_formula(Or((Not(f.left), f.right)), b)
+    inner = {k: v for k, v in b.items() if k not in {p.name for p in f.params}}
+    return type(f)(f.params, _ground_formula(f.body, inner))
+
+
+def _literals(f: Formula) -> list[tuple[Atom, bool]] | None:
+    """A ground conjunction of literals as (atom, positive) pairs; None for any other formula."""
+    parts = f.args if isinstance(f, And) else (f,)
+    out = []
+    for g in parts:
+        if isinstance(g, Atom) and g.predicate != "=":
+            out.append((g, True))
+        elif isinstance(g, Not) and isinstance(g.arg, Atom) and g.arg.predicate != "=":
+            out.append((g.arg, False))
+        else:
+            return None
+    return out
+
+
+def _ground_effect(task: "Task", e: Effect, b: Mapping[str, str]) -> Effect:
+    if isinstance(e, Literal):
+        return e.substitute(b)
+    if isinstance(e, AndEffect):
+        return AndEffect(tuple(_ground_effect(task, x, b) for x in e.effects))
+    if isinstance(e, Probabilistic):
+        return Probabilistic(tuple((p, _ground_effect(task, x, b)) for p, x in e.branches))
+    if isinstance(e, When):
+        return When(_ground_formula(e.condition, b), _ground_effect(task, e.effect, b))
+    if isinstance(e, ForallEffect):
+        names = [p.name for p in e.params]
+        return AndEffect(tuple(_ground_effect(task, e.effect, dict(b, **dict(zip(names, vals))))
+                               for vals in task._groundings(e.params)))
+    return e
+
+
+def _has_when(e: Effect) -> bool:
+    if isinstance(e, When):
+        return True
+    if isinstance(e, AndEffect):
+        return any(_has_when(x) for x in e.effects)
+    if isinstance(e, Probabilistic):
+        return any(_has_when(x) for _, x in e.branches)
+    return False
+
+
+def _distinct_pairs(action: Action, n: int) -> list[tuple[int, int]]:
+    """Index pairs among the first ``n`` parameters that a top-level ``(not (= ?x ?y))`` keeps apart."""
+    names = [p.name for p in action.parameters[:n]]
+    pre = action.precondition
+    out = []
+    for c in (pre.args if isinstance(pre, And) else (pre,)):
+        if isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate == "=":
+            x, y = c.arg.args
+            if x in names and y in names:
+                out.append((names.index(x), names.index(y)))
+    return out
 
 
 def _product(parts: list[list[Outcome]]) -> list[Outcome]:
@@ -305,7 +472,7 @@ def simulate_traces(task: Task, n_traces: int, length: int, rng: np.random.Gener
         state = task.initial_state
         states, actions, rewards = [state | statics], [], []
         for _ in range(length):
-            ok = [a for a in candidates if task.is_applicable(state, a)]
+            ok = task.applicable_primitives(state)
             if not ok:
                 break
             allowed = set(ok)
