@@ -234,3 +234,12 @@ def test_re_export_without_determinize_leaves_no_stale_pddl(model, tmp_path, cap
     assert (out / "domain.pddl").exists() and (out / "problem.pddl").exists()
     assert main(["export-domain", str(model), "-o", str(out), "--goal", "(on b a)"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["domain.ppddl", "problem.ppddl"]
+
+
+def test_a_model_directory_given_as_a_link_is_refused(data, model, tmp_path, capsys):
+    link = tmp_path / "link"
+    link.symlink_to(model, target_is_directory=True)
+    before = snapshot(model)
+    assert main(["learn", str(data), "-o", str(link), "--quiet"]) == 2
+    one_line_error(capsys, "is a symbolic link; give the model directory itself")
+    assert link.is_symlink() and snapshot(model) == before
