@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import re
 from fractions import Fraction
-from itertools import permutations
+from itertools import permutations, product
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -361,7 +361,10 @@ def _literals_of(e: Effect, where: str) -> list[Literal]:
         return [l for x in e.effects for l in _literals_of(x, where)]
     if _reward_only(e):
         return []
-    raise UserError(f"{where}: effect is outside the rule subset (only literals, and, one probabilistic)")
+    what = "when" if isinstance(e, When) else "forall" if isinstance(e, ForallEffect) else \
+        "probabilistic" if isinstance(e, Probabilistic) else type(e).__name__
+    raise UserError(f"{where}: effect {what} is outside the rule subset here (only literals, and, one "
+                    "probabilistic; when inside probabilistic is read as cases)")
 
 
 def _split_exclusions(action: Action) -> tuple[list[Formula], list[Formula]]:
@@ -375,8 +378,16 @@ def _split_exclusions(action: Action) -> tuple[list[Formula], list[Formula]]:
 
 
 def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
-    where = f"{domain_name}: action {action.name}"
-    prim, n = primitive_of(action)
+    """The one NID rule of an action in the rule subset (see :func:`action_to_rules` for actions
+    whose conditional effects make several)."""
+    rules = action_to_rules(action, domain_name)
+    if len(rules) != 1:
+        raise UserError(f"{domain_name}: action {action.name}: its conditional effects make {len(rules)} rules")
+    return rules[0]
+
+
+def _context_of(action: Action, where: str) -> list[Literal]:
+    """The precondition's literals (the implied injectivity, uniqueness and exclusion conjuncts dropped)."""
     names = [p.name for p in action.parameters]
     context: list[Literal] = []
     for c in _split_exclusions(action)[0]:
@@ -391,6 +402,14 @@ def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
             continue                          # uniqueness / exclusion: implied by the rule-set semantics
         else:
             raise UserError(f"{where}: precondition is outside the rule subset (a conjunction of literals)")
+    return context
+
+
+def _subset_rule(action: Action, where: str, context: list[Literal]) -> Rule:
+    """The rule of an effect in the plain subset (literals, and, one probabilistic), as it was
+    always read: a probabilistic block's unassigned mass is the rule's noise."""
+    prim, n = primitive_of(action)
+    names = [p.name for p in action.parameters]
     fixed: list[Literal] = []
     prob_blocks: list[Probabilistic] = []
     for e in _flat_effects(action.effect):
@@ -427,6 +446,120 @@ def action_to_rule(action: Action, domain_name: str = "domain") -> Rule:
         raise UserError(f"{where}: {exc}") from None
 
 
+def action_to_rules(action: Action, domain_name: str = "domain") -> list[Rule]:
+    """The NID rules of a PPDDL action.
+
+    Effects in the plain subset give one rule (:func:`_subset_rule`). Effects with ``when`` whose
+    conditions are conjunctions of literals, several (or nested) ``probabilistic`` blocks, and
+    ``when`` inside ``probabilistic`` give one rule per truth assignment of the atoms the
+    conditions test (those the precondition does not already fix): the assignment joins the
+    context, each ``when`` is resolved under it, and the effect's outcome distribution (the
+    product of its independent blocks, deletes before adds, unassigned mass = no change) becomes
+    the rule's outcomes, exactly, with no noise. ``(probabilistic 2/5 (when (no-detonated ?b) e))``
+    becomes two rules, one with ``(no-detonated ?b)`` in the context. Anything else (a ``forall``
+    effect, a condition with ``or`` or a quantifier) is refused naming the construct and the action.
+    """
+    where = f"{domain_name}: action {action.name}"
+    context = _context_of(action, where)
+    if not _needs_cases(action.effect):
+        try:
+            return [_subset_rule(action, where, context)]
+        except UserError:
+            pass                                  # several probabilistic blocks: read as cases below
+    conditions = _when_conditions(action.effect, where)
+    fixed = {l.atom: l.positive for l in context}
+    tested = sorted({l.atom for c in conditions for l in c if l.atom not in fixed})
+    if len(tested) > 8:
+        raise UserError(f"{where}: its when conditions test {len(tested)} atoms (more than 8): too many rules")
+    prim, n = primitive_of(action)
+    names = [p.name for p in action.parameters]
+    rules = []
+    for values in product((True, False), repeat=len(tested)):
+        truth = {**fixed, **dict(zip(tested, values))}
+        dist = _outcome_distribution(action.effect, truth, where)
+        ctx = tuple(context) + tuple(Literal(a, v) for a, v in zip(tested, values))
+        outcomes = tuple(Outcome(tuple(ch)) for ch in dist)
+        try:
+            rules.append(Rule(Atom(prim, tuple(names[:n])), ctx, outcomes, tuple(float(p) for p in dist.values()), 0.0))
+        except ValueError as exc:
+            raise UserError(f"{where}: {exc}") from None
+    return rules
+
+
+def _needs_cases(e: Effect) -> bool:
+    """True when the effect has a ``when`` (other than a reward's) or a probabilistic inside one."""
+    if isinstance(e, When):
+        return not _reward_only(e)
+    if isinstance(e, AndEffect):
+        return any(_needs_cases(x) for x in e.effects)
+    if isinstance(e, Probabilistic):
+        return any(_needs_cases(x) or isinstance(x, Probabilistic) for _, x in e.branches)
+    return False
+
+
+def _as_literal(c: Formula) -> Literal | None:
+    """A formula that is one literal (not an equality) as a Literal; None otherwise."""
+    if isinstance(c, Atom) and c.predicate != "=":
+        return Literal(c, True)
+    if isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
+        return Literal(c.arg, False)
+    return None
+
+
+def _condition_literals(f: Formula, where: str) -> list[Literal]:
+    out = []
+    for c in _conjuncts(f):
+        lit = _as_literal(c)
+        if lit is None:
+            raise UserError(f"{where}: a when condition that is not a conjunction of literals is outside the "
+                            f"rule subset (got {type(c).__name__.lower()})")
+        out.append(lit)
+    return out
+
+
+def _when_conditions(e: Effect, where: str) -> list[list[Literal]]:
+    if isinstance(e, When):
+        return [] if _reward_only(e) else [_condition_literals(e.condition, where)] + _when_conditions(e.effect, where)
+    if isinstance(e, AndEffect):
+        return [c for x in e.effects for c in _when_conditions(x, where)]
+    if isinstance(e, Probabilistic):
+        return [c for _, x in e.branches for c in _when_conditions(x, where)]
+    if isinstance(e, ForallEffect) and not _reward_only(e):
+        raise UserError(f"{where}: a forall effect is outside the rule subset (NID rules change a fixed set "
+                        "of atoms)")
+    return []
+
+
+def _outcome_distribution(e: Effect, truth: Mapping[Atom, bool], where: str) -> dict[tuple[Literal, ...], Fraction]:
+    """The effect's outcomes as change lists (deletes before adds: an atom both added and deleted
+    ends true) with their probabilities, ``when`` resolved by ``truth``; equal outcomes merged."""
+    out: dict[tuple[Literal, ...], Fraction] = {}
+    for p, adds, dels in _expand(e, truth, where):
+        changes = tuple(sorted({Literal(a, True) for a in adds} | {Literal(a, False) for a in dels - adds}))
+        out[changes] = out.get(changes, Fraction(0)) + p
+    return {k: v for k, v in out.items() if v > 0}
+
+
+def _expand(e: Effect, truth: Mapping[Atom, bool], where: str) -> list[tuple[Fraction, frozenset, frozenset]]:
+    if isinstance(e, Literal):
+        return [(Fraction(1), frozenset({e.atom}), frozenset())] if e.positive else \
+            [(Fraction(1), frozenset(), frozenset({e.atom}))]
+    if isinstance(e, AndEffect):
+        out = [(Fraction(1), frozenset(), frozenset())]
+        for x in e.effects:
+            out = [(p * q, a | b, d | f) for p, a, d in out for q, b, f in _expand(x, truth, where)]
+        return out
+    if isinstance(e, Probabilistic):
+        res = [(p * q, a, d) for p, sub in e.branches for q, a, d in _expand(sub, truth, where)]
+        return res + ([(e.rest, frozenset(), frozenset())] if e.rest > 0 else [])
+    if isinstance(e, When):
+        holds = all(truth.get(l.atom, False) == l.positive for l in _condition_literals(e.condition, where))
+        return _expand(e.effect, truth, where) if holds else [(Fraction(1), frozenset(), frozenset())]
+    if _reward_only(e):
+        return [(Fraction(1), frozenset(), frozenset())]
+    raise UserError(f"{where}: a {type(e).__name__} effect is outside the rule subset")
+
+
 def _excluded_context(x: Formula) -> list[Literal] | None:
     """The context of the rule an exclusion conjunct ``(not <covers>)`` excludes (after
     simplification a one-literal context's exclusion is that literal negated); None if ``x`` is
@@ -441,13 +574,7 @@ def _excluded_context(x: Formula) -> list[Literal] | None:
     if not isinstance(a, (And, Exists)):
         return None
     body = a.body if isinstance(a, Exists) else a
-    lits = []
-    for c in _conjuncts(body):
-        if isinstance(c, Atom) and c.predicate != "=":
-            lits.append(Literal(c, True))
-        elif isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
-            lits.append(Literal(c.arg, False))
-    return lits
+    return [lit for lit in map(_as_literal, _conjuncts(body)) if lit is not None]
 
 
 def context_key(rule: Rule) -> tuple:
@@ -490,7 +617,7 @@ def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
     """The NID rules of a domain in the rule subset. With no applicable action nothing changes in
     PPDDL, so each primitive's default rule is "no change" (``default_noise`` = 0). Rules that
     only block (named by exclusions, with no action of their own) come back as no-change rules."""
-    rules = [action_to_rule(a, domain.name) for a in domain.actions]
+    rules = [r for a in domain.actions for r in action_to_rules(a, domain.name)]
     rules += _blocking_rules(domain, rules)
     prims = sorted({r.action.predicate for r in rules})
     return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims))
