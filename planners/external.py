@@ -1,11 +1,19 @@
 """EXTERNAL: classical planners on a determinised domain, replanning on surprise (FF-Replan).
 
 The PPDDL domain is determinised once (all-outcomes by default, or most-likely; ALGORITHMS.md
-C.4), then at each step: if there is no plan, or the observed state differs from the state the
-plan predicted, a classical planner is called through unified-planning on the current state
+C.4) and parsed by unified-planning once per planner (one episode). Every plan found is kept by
+state: each state the plan passes through (as the determinised domain predicts it) maps to the
+rest of the plan from there. At each step the current state's kept plan is followed; only a
+state no plan passes through calls a classical planner through unified-planning
 (``external:fast-downward`` by default; ``external:NAME`` picks any installed unified-planning
-engine); the first step of the plan is run as its robot primitive, and the state the
-determinised action predicts is remembered for the next comparison (Yoon, Fern & Givan 2007).
+engine) (Yoon, Fern & Givan 2007). After a failed ``pick-tower`` the state is one seen before,
+so its plan is reused rather than planned again.
+
+When the planner proves on the all-outcomes determinisation that no plan exists, the goal is
+unreachable in the PPDDL domain too (every trajectory of the domain is a plan there), so the
+decision says ``dead_end`` and the episode stops. Most-likely drops outcomes, so there a proof
+says nothing about the domain: the state is remembered as planless and a seeded random
+applicable primitive is run, without calling the planner again for that state.
 
 A planner that is not installed, or cannot take the domain's features, is refused in one line
 before the first step.
@@ -13,7 +21,6 @@ before the first step.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -41,7 +48,7 @@ class ExternalPlanner:
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
-        from groundsym.ppddl.determinize import determinize
+        from groundsym.ppddl.determinize import Solver, determinize
         from groundsym.ppddl.simulate import Task
 
         self.opts = parse_planner_options(self.name, self.OPTIONS, options)
@@ -52,45 +59,52 @@ class ExternalPlanner:
         self.domain = domain
         self.plain, self.plain_problem = determinize(domain, problem, self.opts["determinize"])
         self.task = Task(self.plain, self.plain_problem)
+        self.solver = Solver(self.plain, self.plain_problem, self.opts["engine"])
         self.rng = np.random.default_rng(seed)
-        self.plan: list[Atom] = []
-        self.predicted: frozenset | None = None
+        self.plans: dict[frozenset, list[Atom]] = {}     # state -> the rest of a plan from there
+        self.planless: set[frozenset] = set()            # states where the planner found no plan
         self.calls = 0
 
-    def _replan(self, state: frozenset) -> None:
-        from groundsym.ppddl.determinize import solve
-
-        problem = replace(self.plain_problem, init=tuple(sorted(state)))
+    def _replan(self, state: frozenset) -> bool:
+        """Call the planner on ``state``, keep its plan by state; True when it proved there is none."""
         self.calls += 1
         try:
-            found = solve(self.plain, problem, self.opts["engine"], self.opts["timeout"])
+            found, proven = self.solver.solve(state, self.opts["timeout"])
         except UserError:
             raise
         except Exception as exc:  # the engine itself failed: say so in one line, not a traceback
             raise UserError(f"--planner external:{self.opts['engine']}: the planner failed on domain "
                             f"{self.plain.name}: {type(exc).__name__}: {exc}") from None
-        self.plan = list(found or [])
+        if found is None:
+            self.planless.add(state)
+            return proven
+        s = state
+        for i, step in enumerate(found):
+            self.plans.setdefault(s, found[i:])
+            nxt = self.task.outcomes(s, step)
+            if not nxt:
+                break
+            s = nxt[0].state
+        return False
 
     def choose(self, observation: Observation) -> Decision:
         from groundsym.ppddl.determinize import primitive_plan
 
         state = observation.state
-        surprised = self.predicted is None or state != self.predicted or not self.plan
-        if surprised:
-            self._replan(state)
-        info = {"replanned": surprised, "planner_calls": self.calls, "plan_length": len(self.plan)}
-        if not self.plan:      # no plan from here (dead end for the determinised domain)
-            self.predicted = None
+        replanned = state not in self.plans and state not in self.planless
+        proven = self._replan(state) if replanned else False
+        info = {"replanned": replanned, "planner_calls": self.calls}
+        plan = self.plans.get(state, [])
+        if not plan:           # no plan from here in the determinised domain
+            if proven and self.opts["determinize"] == "all-outcomes":
+                return Decision(observation.actions[0], 0.0, {**info, "plan": [], "dead_end": True})
             action = observation.actions[int(self.rng.integers(len(observation.actions)))]
-            return Decision(action, 0.0, {**info, "plan": []})
-        step = self.plan.pop(0)
-        nxt = self.task.outcomes(state, step)
-        self.predicted = nxt[0].state if nxt else state
-        action = primitive_plan(self.domain, [step])[0]
-        return Decision(action, float("nan"), {**info, "plan": [str(step), *map(str, self.plan)]})
+            return Decision(action, 0.0, {**info, "plan": [], "plan_length": 0})
+        action = primitive_plan(self.domain, [plan[0]])[0]
+        return Decision(action, float("nan"), {**info, "plan_length": len(plan), "plan": [str(x) for x in plan]})
 
     def observe(self, action: Atom, observation: Observation) -> None:
-        """The comparison with the predicted state happens in :meth:`choose`."""
+        """Plans are kept by state; :meth:`choose` looks the new state up."""
 
 
 def _check_engine(engine: str) -> None:

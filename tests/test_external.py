@@ -1,5 +1,5 @@
 """The external FF-Replan bridge: determinise, plan with Fast Downward through unified-planning,
-execute, replan only when the observed state is not the predicted one."""
+execute, replan only in a state no kept plan passes through."""
 
 from __future__ import annotations
 
@@ -26,11 +26,13 @@ def test_ff_replan_reaches_the_goal_and_replans_only_on_surprise():
         planner = make_planner("external", model, {}, seed)
         ep = run_episode(env, planner, 30, seed)
         assert ep.success
-        for prev, step in zip(ep.steps, ep.steps[1:]):
-            # a step follows the old plan exactly when the world did what the plan predicted
+        for k, (prev, step) in enumerate(zip(ep.steps, ep.steps[1:]), 1):
+            # without a new call, a step follows the rest of a plan found before (plans are kept
+            # by every state they pass through)
             if not step.info["replanned"]:
                 assert step.info["planner_calls"] == prev.info["planner_calls"]
-                assert prev.info["plan"][1:] == step.info["plan"]
+                assert any(step.info["plan"] == s.info["plan"][j:] for s in ep.steps[:k]
+                           for j in range(len(s.info["plan"])))
         # every primitive run is one the PPDDL task can run in that state
         assert {s.action.split()[0].strip("(") for s in ep.steps} <= set(task.primitives)
 

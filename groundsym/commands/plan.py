@@ -32,11 +32,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain", help="a PPDDL domain file (instead of --sim)")
     p.add_argument("--problem", help="a PPDDL problem file (default: the problem in the domain file)")
     p.add_argument("--planner", default="prada",
-                   help="prada, random, symbolic-nn, continuous-nn, external[:ENGINE] (default prada)")
+                   help="prada, random, symbolic-nn, continuous-nn, external[:ENGINE], lrtdp (default prada)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="KEY=VALUE",
                    help="planner option, repeatable, e.g. horizon=4 samples=500 variant=a-prada")
     p.add_argument("--steps", type=positive_int, help="primitives per episode (default: the sim's episode "
-                   "length; 30 on a PPDDL domain)")
+                   "length; on a PPDDL domain 5 per object, at least 50)")
     p.add_argument("--episodes", type=positive_int, default=1, help="episodes to run (default 1)")
     p.add_argument("--seed", type=nonneg_int, default=0)
     p.add_argument("-o", "--output", type=output_path, help="write the episode(s) as JSON")
@@ -111,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
                "stderr": float(np.std(values, ddof=1) / np.sqrt(len(values))) if len(values) > 1 else 0.0}
     if wins:
         summary["success_rate"] = float(np.mean(wins))
+    summary["dead_ends"] = sum(e.dead_end for e in episodes)
     line = f"{args.planner}: {len(episodes)} episode(s), mean value {summary['mean_value']:.4g}"
     if len(values) > 1:
         line += f" +- {summary['stderr']:.2g}"
@@ -154,6 +155,7 @@ def _run_sim(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> lis
 
 def _run_ppddl(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> list[Episode]:
     from ..ppddl.parser import load
+    from ..ppddl.simulate import default_steps
 
     if args.model:
         raise UserError("--model goes with --sim; on a PPDDL domain the planner uses the domain itself")
@@ -161,7 +163,7 @@ def _run_ppddl(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> l
     where = args.problem or args.domain
     env, task = ppddl_world(domain, problem, where)
     pm = ppddl_model(domain, problem, task, need_rules="rules" in getattr(cls, "NEEDS", ()))
-    steps = args.steps or 30
+    steps = args.steps or default_steps(task)
     episodes = []
     for k, seed in enumerate(episode_seeds(args.seed, args.episodes)):
         planner = make_planner(args.planner, pm, options, seed)
@@ -169,5 +171,6 @@ def _run_ppddl(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> l
         episodes.append(ep)
         if not args.quiet:
             print(f"episode {k}: {'goal reached' if ep.success else 'goal not reached'} after "
-                  f"{len(ep.steps)} step(s), reward {ep.value:.4g}")
+                  f"{len(ep.steps)} step(s), reward {ep.value:.4g}"
+                  + (" (dead end: the planner proved the goal unreachable)" if ep.dead_end else ""))
     return episodes

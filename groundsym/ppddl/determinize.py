@@ -3,7 +3,11 @@
 * ``all-outcomes`` (FF-Replan's FFR-a): one action ``<name>_o<i>`` per outcome of the action's
   effect (the product of its ``probabilistic`` blocks); the planner picks outcomes
   optimistically. Outcomes that change nothing are left out: a classical planner never needs them.
-* ``most-likely`` (FFR-s): each action keeps only its most probable outcome.
+* ``most-likely`` (FFR-s): each action keeps only its most probable outcome. Equally probable
+  outcomes are told apart by a rule that does not depend on the order they are written in: the
+  one that changes fewer atoms wins, then the one whose sorted changes print first. (Taking the
+  first written would make the determinisation depend on the file's layout: on triangle-tireworld
+  it alone decides whether a move "keeps" the tyre.)
 
 Actions (or outcomes) that change nothing are left out in both modes.
 
@@ -85,7 +89,7 @@ def determinize_action(a: Action, mode: str) -> list[Action]:
     helps a classical planner, and Fast Downward through unified-planning fails on some)."""
     alts = _merged(a.effect)
     if mode == "most-likely":
-        p, best = max(alts, key=lambda px: px[0])  # max keeps the first of equal ones
+        p, best = min(alts, key=lambda px: (-px[0], *_canonical(px[1])))
         if _empty(best):
             return []
         return [replace(a, effect=best, comment=f"most likely outcome, p = {float(p):.4g}" if p < 1 else "")]
@@ -94,6 +98,13 @@ def determinize_action(a: Action, mode: str) -> list[Action]:
         return [replace(a, effect=alts[0][1])] if useful else []
     return [replace(a, name=f"{a.name}_o{i}", effect=x, comment=f"outcome {i}, p = {float(p):.4g}")
             for i, (p, x) in enumerate(useful, 1)]
+
+
+def _canonical(e: Effect) -> tuple[int, tuple[str, ...]]:
+    """(number of changes, the changes printed and sorted): an outcome's key independent of the
+    order its parts were written in."""
+    parts = [str(x) for x in (e.effects if isinstance(e, AndEffect) else (e,)) if not _empty(x)]
+    return len(parts), tuple(sorted(parts))
 
 
 def determinize(domain: Domain, problem: Problem | None, mode: str = "all-outcomes") -> tuple[Domain, Problem | None]:
@@ -156,34 +167,74 @@ def solve(domain: Domain, problem: Problem, planner: str = "fast-downward",
 
     ``domain`` and ``problem`` must be deterministic (see :func:`determinize`).
     """
-    import unified_planning.shortcuts as ups
-    from unified_planning.io import PDDLReader
-    from unified_planning.engines import PlanGenerationResultStatus as Status
+    return Solver(domain, problem, planner).solve(frozenset(problem.init), timeout)[0]
 
-    if problem.goal is None:
-        raise UserError(f"problem {problem.name}: has no goal, nothing to plan for")
-    ups.get_environment().credits_stream = None
-    with tempfile.TemporaryDirectory() as tmp:
-        dpath, ppath = Path(tmp) / "domain.pddl", Path(tmp) / "problem.pddl"
-        dpath.write_text(str(domain))
-        ppath.write_text(str(problem))
-        up_problem = PDDLReader().parse_problem(str(dpath), str(ppath))
-    factory = ups.get_environment().factory
-    if planner not in factory.engines:
-        raise UserError(f"unknown planner {planner!r} (installed: {', '.join(sorted(factory.engines))})")
-    engine_cls = factory.engine(planner)
-    if not getattr(engine_cls, "is_oneshot_planner", lambda: False)():
-        raise UserError(f"{planner!r} is not a planner (a unified-planning engine of another kind)")
-    if not engine_cls.supports(up_problem.kind):
-        missing = sorted(set(up_problem.kind.features) - set(engine_cls.supported_kind().features))
-        raise UserError(f"planner {planner!r} cannot take domain {domain.name}: it lacks "
-                        f"{', '.join(f.lower().replace('_', '-') for f in missing)}")
-    with _private_cwd(), ups.OneshotPlanner(name=planner, params=_PARAMS.get(planner)) as engine:
-        result = engine.solve(up_problem, timeout=timeout)
-    if result.status not in (Status.SOLVED_SATISFICING, Status.SOLVED_OPTIMALLY) or result.plan is None:
-        return None
-    # unified-planning lower-cases names: give them back their case
-    names = {a.name.lower(): a.name for a in domain.actions}
-    objs = {o.name.lower(): o.name for o in (*problem.objects, *domain.constants)}
-    return [Atom(names.get(str(ai.action.name), str(ai.action.name)),
-                 tuple(objs.get(str(p), str(p)) for p in ai.actual_parameters)) for ai in result.plan.actions]
+
+class Solver:
+    """A classical planner on one determinised domain and problem, asked from many initial states.
+
+    The PDDL text is parsed by unified-planning once; each call only sets the initial state (that
+    parse was about a third of each call's time when FF-Replan parsed again at every replanning).
+    """
+
+    def __init__(self, domain: Domain, problem: Problem, planner: str = "fast-downward") -> None:
+        import unified_planning.shortcuts as ups
+        from unified_planning.io import PDDLReader
+
+        if problem.goal is None:
+            raise UserError(f"problem {problem.name}: has no goal, nothing to plan for")
+        ups.get_environment().credits_stream = None
+        with tempfile.TemporaryDirectory() as tmp:
+            dpath, ppath = Path(tmp) / "domain.pddl", Path(tmp) / "problem.pddl"
+            dpath.write_text(str(domain))
+            ppath.write_text(str(problem))
+            self.up_problem = PDDLReader().parse_problem(str(dpath), str(ppath))
+        factory = ups.get_environment().factory
+        if planner not in factory.engines:
+            raise UserError(f"unknown planner {planner!r} (installed: {', '.join(sorted(factory.engines))})")
+        engine_cls = factory.engine(planner)
+        if not getattr(engine_cls, "is_oneshot_planner", lambda: False)():
+            raise UserError(f"{planner!r} is not a planner (a unified-planning engine of another kind)")
+        if not engine_cls.supports(self.up_problem.kind):
+            missing = sorted(set(self.up_problem.kind.features) - set(engine_cls.supported_kind().features))
+            raise UserError(f"planner {planner!r} cannot take domain {domain.name}: it lacks "
+                            f"{', '.join(f.lower().replace('_', '-') for f in missing)}")
+        self.planner, self.domain, self.problem = planner, domain, problem
+        self.start = frozenset(problem.init)
+        # unified-planning lower-cases names: give them back their case
+        self.names = {a.name.lower(): a.name for a in domain.actions}
+        self.objs = {o.name.lower(): o.name for o in (*problem.objects, *domain.constants)}
+        self._fluents = {f.name: f for f in self.up_problem.fluents}
+        self._expr = ups.get_environment().expression_manager
+
+    def _fnode(self, atom: Atom):
+        fluent = self._fluents.get(atom.predicate) or self._fluents.get(atom.predicate.lower())
+        if fluent is None:
+            return None
+        return self._expr.FluentExp(fluent, [self.up_problem.object(a.lower()) if not self.up_problem.has_object(a)
+                                              else self.up_problem.object(a) for a in atom.args])
+
+    def solve(self, state: frozenset, timeout: float | None = 60.0) -> tuple[list[Atom] | None, bool]:
+        """(plan or None, proven): ``proven`` says the planner proved that no plan exists."""
+        import unified_planning.shortcuts as ups
+        from unified_planning.engines import PlanGenerationResultStatus as Status
+
+        up_problem = self.up_problem
+        if state != self.start:
+            up_problem = self.up_problem.clone()
+            for atom in self.start - state:
+                node = self._fnode(atom)
+                if node is not None:
+                    up_problem.set_initial_value(node, False)
+            for atom in state - self.start:
+                node = self._fnode(atom)
+                if node is not None:
+                    up_problem.set_initial_value(node, True)
+        with _private_cwd(), ups.OneshotPlanner(name=self.planner, params=_PARAMS.get(self.planner)) as engine:
+            result = engine.solve(up_problem, timeout=timeout)
+        if result.status not in (Status.SOLVED_SATISFICING, Status.SOLVED_OPTIMALLY) or result.plan is None:
+            proven = result.status == Status.UNSOLVABLE_PROVEN
+            return None, proven
+        return [Atom(self.names.get(str(ai.action.name), str(ai.action.name)),
+                     tuple(self.objs.get(str(p), str(p)) for p in ai.actual_parameters))
+                for ai in result.plan.actions], False
