@@ -347,8 +347,12 @@ class AnnealResult:
 
 def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *, workers: int = 1,
            checkpoint: Path | None = None, data_sha256: str = "",
-           report: Callable[[int, int, LossTerms | None], None] | None = None) -> AnnealResult:
+           report: Callable[[int, int, LossTerms | None], None] | None = None,
+           executor: Any = None) -> AnnealResult:
     """Run all restarts (``workers`` processes) and return the best symbols.
+
+    ``executor`` (``groundsym.executors``, e.g. Ray; pass ``workers=1`` with it) runs each round's
+    restarts as its tasks instead of the process pool, with the same result.
 
     ``report(done, total, best_terms)`` is called after every round (for progress output). With
     ``checkpoint``, the states are written after every round and an existing file (same data,
@@ -361,6 +365,8 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     if pool is None:
         _init_worker(data, loss_cfg, cfg)
     run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])
+    if executor is not None:
+        run = executor.mapper(_init_worker, (data, loss_cfg, cfg)) or run
     try:
         if states is None:
             states = run(_work, [("start", (r, seed)) for r in range(cfg.restarts)])

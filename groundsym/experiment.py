@@ -11,8 +11,9 @@ Seeds come from ``numpy.random.SeedSequence(seed, spawn_key=...)`` per unit and 
 from a shared stream, so a unit's result does not depend on which worker runs it or on what ran
 before: the same seed gives the same table for any number of workers. Start states depend on the
 run only, so every method and setting of a run starts from the same K scenes (common random
-numbers). Each finished unit is written to ``results/runs/`` at once; an interrupted evaluation
-resumes from those files.
+numbers). A unit returns its record and its models as values; the driver alone writes them
+(``results/runs/``, ``results/models/``), atomically, as each unit finishes, so units can run on
+other machines (``groundsym.executors``) and an interrupted evaluation resumes from those files.
 """
 
 from __future__ import annotations
@@ -21,10 +22,9 @@ import hashlib
 import io
 import json
 import math
+import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -170,14 +170,28 @@ def unit_seeds(cfg: EvalConfig, n_symbol: int, run: int) -> dict[str, Any]:
             "model_data": dict(zip(cfg.model_traces, s[2::2])), "planners": dict(zip(cfg.model_traces, s[3::2]))}
 
 
-def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> dict[str, Any]:
-    """Learn symbols on N transitions, then models and episodes for every model-trace count."""
+def model_name(n_symbol: int, n_model: int, run: int) -> str:
+    return f"model-N{n_symbol}-n{n_model}-run{run:03d}"
+
+
+def run_unit(cfg: EvalConfig, n_symbol: int, run: int) -> dict[str, Any]:
+    """Learn symbols on N transitions, then models and episodes for every model-trace count.
+
+    Returns ``{"unit": record, "models": {folder: {file: text}}}``, values only: the unit may run
+    on another machine, so its models are learned in a private scratch folder (removed at once)
+    and handed back to the driver, which writes them (:func:`save_unit`)."""
+    with tempfile.TemporaryDirectory(prefix="groundsym-unit-") as scratch:
+        return _run_unit(cfg, n_symbol, run, Path(scratch))
+
+
+def _run_unit(cfg: EvalConfig, n_symbol: int, run: int, scratch: Path) -> dict[str, Any]:
     from .collect import collect_traces
     from .episode import SimEnv, run_episode
     from .modeldir import learn_symbolic_model, load_model
     from .planner import PlanningModel, make_planner
 
     t0 = time.monotonic()
+    models: dict[str, dict[str, str]] = {}
     sim = _sim(cfg)
     seeds = unit_seeds(cfg, n_symbol, run)
     n_traces = max(1, math.ceil(n_symbol / cfg.trace_length))
@@ -192,9 +206,10 @@ def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> 
         if not cfg.truth_symbols and "grounding" not in report:
             report.update(grounding_f1(symbols, mdata))
         sds = symbols.to_symbolic_dataset(mdata)
-        mdir = Path(work_dir) / f"model-N{n_symbol}-n{n}-run{run:03d}"
+        mdir = scratch / model_name(n_symbol, n, run)
         learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False)
         m = load_model(mdir)
+        models[mdir.name] = {f.name: f.read_text() for f in sorted(mdir.iterdir()) if f.is_file()}
         pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,
                            rules=m.rules, reward=m.reward, traces=mdata, symbolic_traces=sds, gamma=float(sim.gamma))
         pseeds = np.random.SeedSequence(seeds["planners"][n]).generate_state(len(cfg.methods) * len(starts))
@@ -205,12 +220,9 @@ def run_unit(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str | Path) -> 
                                        int(pseeds[i * len(starts) + k]))
                 values.append(run_episode(SimEnv(sim, symbols), planner, steps, start, method).value)
             entries.append({"model_traces": n, "method": method, "values": values, "mean": float(np.mean(values))})
-    return {"schema": UNIT_SCHEMA, "config": cfg.fingerprint(), "symbol_data": n_symbol, "run": run,
+    unit = {"schema": UNIT_SCHEMA, "config": cfg.fingerprint(), "symbol_data": n_symbol, "run": run,
             "entries": entries, "report": report, "seconds": time.monotonic() - t0}
-
-
-def _run_unit_job(cfg: EvalConfig, n_symbol: int, run: int, work_dir: str) -> dict[str, Any]:
-    return run_unit(cfg, n_symbol, run, work_dir)
+    return {"unit": unit, "models": models}
 
 
 # ----------------------------------------------------------------------------- the whole evaluation
@@ -243,8 +255,9 @@ def validate(cfg: EvalConfig) -> None:
         cfg.anneal_config()
 
 
-def _check_config(out: Path, cfg: EvalConfig) -> None:
-    """Resume only an evaluation with the same options; never mix two."""
+def check_config(out: Path, cfg: EvalConfig) -> None:
+    """Resume only an evaluation with the same options; never mix two. The executor is not an
+    option here: a folder started on one executor resumes on any other."""
     validate(cfg)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
@@ -258,36 +271,43 @@ def _check_config(out: Path, cfg: EvalConfig) -> None:
         atomic_write_json(path, {"fingerprint": cfg.fingerprint(), "config": cfg.key()})
 
 
+_check_config = check_config
+
+
 def evaluate(cfg: EvalConfig, runs: int, out: str | Path, workers: int = 1, progress: bool = True,
-             optimum: float | None = None, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """Run (or resume) every unit, then write results.json, results.md and results.png."""
+             optimum: float | None = None, provenance: Mapping[str, Any] | None = None,
+             executor: Any = None) -> dict[str, Any]:
+    """Run (or resume) every unit, then write results.json, results.md and results.png.
+
+    Units run on ``executor`` (``groundsym.executors``; default: ``workers`` local processes) and
+    come back as values; this process writes each one as it finishes."""
+    from .executors import ProcessExecutor
+
     out = Path(out)
-    _check_config(out, cfg)
+    check_config(out, cfg)
     todo = [(N, r) for r in range(runs) for N in cfg.symbol_data if not unit_path(out, N, r).exists()]
     total = runs * len(cfg.symbol_data)
-    bar = Progress(total, "evaluate", enabled=progress)
+    executor = executor or ProcessExecutor(workers)
+    bar = Progress(len(todo), "evaluate", enabled=progress)    # the ETA counts this call's units only
     done = total - len(todo)
-    bar.update(done, f"{done} unit(s) resumed from {out / 'runs'}", force=True)
-    work = out / "models"
-    if workers <= 1:
-        for N, r in todo:
-            _save_unit(out, run_unit(cfg, N, r, work))
-            done += 1
-            bar.update(done, _status(out, cfg, runs))
-    else:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-            futures = [pool.submit(_run_unit_job, cfg, N, r, str(work)) for N, r in todo]
-            for fut in as_completed(futures):
-                _save_unit(out, fut.result())
-                done += 1
-                bar.update(done, _status(out, cfg, runs))
+    bar.update(0, f"{done} of {total} unit(s) resumed from {out / 'runs'}; running on {executor.description}",
+               force=True)
+    for k, result in enumerate(executor.as_completed(run_unit, [(cfg, N, r) for N, r in todo]), 1):
+        save_unit(out, result)
+        done += 1
+        bar.update(k, f"{done}/{total} units done | {_status(out, cfg, runs)}")
     bar.close()
     results = aggregate(out, cfg, runs, optimum, provenance)
     write_outputs(out, results)
     return results
 
 
-def _save_unit(out: Path, unit: dict[str, Any]) -> None:
+def save_unit(out: Path, result: Mapping[str, Any]) -> None:
+    """Write a finished unit's models, then its record (whose presence means the unit is done)."""
+    for folder, files in result["models"].items():
+        for name, text in files.items():
+            atomic_write_text(out / "models" / folder / name, text)
+    unit = result["unit"]
     atomic_write_json(unit_path(out, unit["symbol_data"], unit["run"]), unit)
 
 

@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from ..errors import UserError
-from ..experiment import EvalConfig, evaluate, markdown_table, methods_list, optimum_of, parse_list
+from ..executors import add_executor_args, check_executor_options, make_executor
+from ..experiment import EvalConfig, check_config, evaluate, markdown_table, methods_list, optimum_of, parse_list
 from ..provenance import provenance
 from ..registry import get_sim_class, planner_names
 from ..fileio import read_json
@@ -34,8 +35,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model-traces", default="9", help="traces of 10 primitives for model learning, "
                    "comma-separated counts (default 9; the paper: 3,9); the symbols of a run serve every count")
     p.add_argument("--runs", type=positive_int, default=30, help="independent runs (default 30)")
-    p.add_argument("--workers", type=positive_int, default=1, help="worker processes (default 1); the "
+    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default 1; with "
+                   "--executor ray and no --ray-address: the CPUs of the local Ray, default all cores); the "
                    "results do not depend on it")
+    add_executor_args(p, "With ray, each unit (one run at one symbol-data size) is a Ray task.")
     p.add_argument("--seed", type=nonneg_int, default=0)
     p.add_argument("--evals", type=positive_int, default=100_000,
                    help="symbol-learning budget per run, loss evaluations over all restarts (default 1e5)")
@@ -79,10 +82,15 @@ def run(args: argparse.Namespace) -> int:
                      restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth)
     optimum = optimum_of(args.sim, given)
     _warn_if_resuming_an_older_cell(Path(args.output) / "results.json", args.sim)
-    results = evaluate(cfg, args.runs, args.output, workers=min(args.workers, os.cpu_count() or 1),
-                       progress=not args.quiet, optimum=optimum,
-                       provenance=provenance(args.argv, seed=args.seed,
-                                             cell_version=getattr(sim_cls, "CELL_VERSION", None)))
+    check_executor_options(args.executor, args.ray_address)
+    check_config(Path(args.output), cfg)         # a folder of other options is refused before Ray starts
+    cores = os.cpu_count() or 1
+    workers = min(args.workers or (cores if args.executor == "ray" else 1), cores)
+    with make_executor(args.executor, workers=workers, address=args.ray_address) as executor:
+        results = evaluate(cfg, args.runs, args.output, progress=not args.quiet, optimum=optimum,
+                           provenance=provenance(args.argv, seed=args.seed,
+                                                 cell_version=getattr(sim_cls, "CELL_VERSION", None)),
+                           executor=executor)
     sys.stdout.write(markdown_table(results))
     print(f"wrote {args.output}/results.json, results.md, results.png", file=sys.stderr)
     return 0

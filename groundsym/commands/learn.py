@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ..anneal import AnnealConfig, anneal, default_workers
 from ..errors import UserError
+from ..executors import add_executor_args, check_executor_options, make_executor
 from ..fileio import file_sha256, output_target
 from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
 from ..loss import LossConfig, prepare
@@ -42,6 +43,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--restarts", type=positive_int, default=4, metavar="R", help="independent restarts (default 4)")
     p.add_argument("--workers", type=positive_int, default=None, metavar="W",
                    help="worker processes (default: the number of cores); the result does not depend on it")
+    add_executor_args(p, "With ray, each round's restarts are Ray tasks; without --ray-address, Ray "
+                      "starts on this machine with --workers CPUs.")
     p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
                    help="save the search state here after every round; an existing file is resumed")
@@ -98,6 +101,7 @@ def check_options(args: argparse.Namespace) -> str:
         raise UserError(f"--p-min: must be in (0, 1), got {args.p_min}")
     if schema == SYMBOLIC_SCHEMA:
         return schema
+    check_executor_options(args.executor, args.ray_address)
     if args.unary + args.binary == 0:
         raise UserError("--unary and --binary: need at least one symbol to learn")
     for flag, k in (("--unary", args.unary), ("--binary", args.binary)):
@@ -153,13 +157,15 @@ def learn_symbols(args: argparse.Namespace, out: Path) -> SymbolSet:
     cfg = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
     sha = file_sha256(args.data)
     workers = min(args.workers or default_workers(), args.restarts)
-    progress = Progress(cfg.evals, "learn symbols", enabled=not args.quiet)
+    with make_executor(args.executor, workers=workers, address=args.ray_address) as ex:
+        where = f" on {ex.description}" if args.executor != "processes" else ""
+        progress = Progress(cfg.evals, "learn symbols" + where, enabled=not args.quiet)
 
-    def report(done: int, total: int, best) -> None:
-        progress.update(done, f"best {best}" if best is not None else "")
+        def report(done: int, total: int, best) -> None:
+            progress.update(done, f"best {best}" if best is not None else "")
 
-    result = anneal(data, loss_cfg, cfg, args.seed, workers=workers, checkpoint=args.checkpoint,
-                    data_sha256=sha, report=report)
+        result = anneal(data, loss_cfg, cfg, args.seed, workers=workers if args.executor == "processes" else 1,
+                        checkpoint=args.checkpoint, data_sha256=sha, report=report, executor=ex)
     progress.close(f"best {result.terms}")
     symbols = SymbolSet(tuple(result.symbols), ds.feature_names)
     feats, pairs = dataset_arrays(ds)
