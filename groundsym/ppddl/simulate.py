@@ -189,8 +189,9 @@ class Task:
                     ga = self.ground(Atom(a.name, args))
                     if ga is None:
                         continue
-                    if ga.pos:
-                        triggered.setdefault(min(ga.pos), []).append(ga)
+                    if ga.pos:      # the atom with the most arguments: the rarest to hold, as a rule
+                        trigger = max(ga.pos, key=lambda x: (len(x.args), x))
+                        triggered.setdefault(trigger, []).append(ga)
                     else:
                         always.append(ga)
             self._index = (triggered, always)
