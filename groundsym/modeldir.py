@@ -253,7 +253,12 @@ def model_transaction(d: str | Path) -> Iterator[Path]:
         if d.is_dir():
             _carry_over(d, stage)
         write_manifest(stage)
-        _swap(stage, d)
+        try:
+            _swap(stage, d)
+        except OSError as exc:   # e.g. another command put a directory at d between the renames
+            recover(d)
+            raise UserError(f"{d}: cannot put the new model in place ({exc.strerror or exc}); "
+                            f"the old one is kept") from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 
