@@ -16,6 +16,7 @@ primitive is the action itself. A primitive with no applicable PPDDL action chan
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cmp_to_key
 from itertools import product
 from typing import Iterable, Mapping, Sequence
 
@@ -169,7 +170,7 @@ class Task:
             if p > 0:
                 key = ((state - dels) | adds, r)
                 merged[key] = merged.get(key, 0.0) + p
-        return sorted((Successor(p, s, r) for (s, r), p in merged.items()), key=lambda x: (sorted(x.state), x.reward))
+        return _in_order(Successor(p, s, r) for (s, r), p in merged.items())
 
     def applicable_actions(self, state: frozenset) -> list[Atom]:
         """Every applicable ground PPDDL action, sorted. Ground actions are indexed by one atom
@@ -178,19 +179,20 @@ class Task:
         seen: list[_GroundAction] = list(always)
         for atom in state:
             seen.extend(triggered.get(atom, ()))
-        return sorted(ga.atom for ga in seen if ga.applicable(self, state))
+        return sorted((ga.atom for ga in seen if ga.applicable(self, state)), key=_atom_key)
 
     def _trigger_index(self) -> tuple[dict[Atom, list["_GroundAction"]], list["_GroundAction"]]:
         if self._index is None:
             triggered: dict[Atom, list[_GroundAction]] = {}
             always: list[_GroundAction] = []
+            changing = {l.atom.predicate for a in self.domain.actions for l in _effect_literals(a.effect)}
             for a in self.domain.actions:
                 for args in self.groundings(a.name):
                     ga = self.ground(Atom(a.name, args))
                     if ga is None:
                         continue
-                    if ga.pos:      # the atom with the most arguments: the rarest to hold, as a rule
-                        trigger = max(ga.pos, key=lambda x: (len(x.args), x))
+                    if ga.pos:      # a changing atom (static ones hold all along), the one with most arguments
+                        trigger = max(ga.pos, key=lambda x: (x.predicate in changing, len(x.args), _atom_key(x)))
                         triggered.setdefault(trigger, []).append(ga)
                     else:
                         always.append(ga)
@@ -282,7 +284,7 @@ class Task:
         for ga in inst:
             for s in self.outcomes(state, ga):
                 merged[(s.state, s.reward)] = merged.get((s.state, s.reward), 0.0) + s.prob / len(inst)
-        return sorted((Successor(p, s, r) for (s, r), p in merged.items()), key=lambda x: (sorted(x.state), x.reward))
+        return _in_order(Successor(p, s, r) for (s, r), p in merged.items())
 
     def probability(self, state: frozenset, action: Atom, succ: frozenset) -> float:
         """``P(succ | state, action)`` of a primitive; an inapplicable one changes nothing.
@@ -297,6 +299,24 @@ class Task:
 
 
 _NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)
+
+
+def _atom_key(a: Atom) -> tuple:
+    """Atoms' own order as a tuple (compared in C: sorting is the simulator's hot spot)."""
+    return a.predicate, a.args
+
+
+def _compare(x: Successor, y: Successor) -> int:
+    """The order of ``(sorted(state), reward)`` without sorting whole states: sorted states first
+    differ at the least atom of their symmetric difference, and the state holding it comes first."""
+    diff = x.state ^ y.state
+    if diff:
+        return -1 if min(diff, key=_atom_key) in x.state else 1
+    return (x.reward > y.reward) - (x.reward < y.reward)
+
+
+def _in_order(successors: Iterable[Successor]) -> list[Successor]:
+    return sorted(successors, key=cmp_to_key(_compare))
 _FALSE = Or(())
 
 
@@ -391,6 +411,19 @@ def _ground_effect(task: "Task", e: Effect, b: Mapping[str, str]) -> Effect:
         return AndEffect(tuple(_ground_effect(task, e.effect, dict(b, **dict(zip(names, vals))))
                                for vals in task._groundings(e.params)))
     return e
+
+
+def _effect_literals(e: Effect) -> list[Literal]:
+    """Every literal an effect may set (under any branch or condition)."""
+    if isinstance(e, Literal):
+        return [e]
+    if isinstance(e, AndEffect):
+        return [l for x in e.effects for l in _effect_literals(x)]
+    if isinstance(e, Probabilistic):
+        return [l for _, x in e.branches for l in _effect_literals(x)]
+    if isinstance(e, (When, ForallEffect)):
+        return _effect_literals(e.effect)
+    return []
 
 
 def _has_when(e: Effect) -> bool:

@@ -1,0 +1,78 @@
+"""The IPPC 2006/2008 table: every problem x {PRADA, FF-Replan all-outcomes, most-likely, LRTDP, RANDOM}.
+
+Each cell runs ``--episodes`` episodes (seeds 0..K-1, each planner built afresh per episode as
+``groundsym plan`` does) of at most ``--steps`` primitives and prints one JSON line: successes,
+mean steps of the successful episodes, dead ends the planner proved, and seconds per decision
+(wall time of the cell over the decisions made). Lines are appended to ``--out`` as cells finish,
+so a run cut short keeps the rows it has. Problems run in the order given (default: the tyre
+worlds first, then the blocks worlds), planners in the order RANDOM, LRTDP, FF-Replan
+all-outcomes, most-likely, PRADA.
+
+    nice -n 10 .venv/bin/python benchmarks/bench_ippc_table.py --data tests/data/ippc --out ippc.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from groundsym.episode import ppddl_model, ppddl_world, run_episode  # noqa: E402
+from groundsym.planner import make_planner  # noqa: E402
+from groundsym.ppddl.parser import load  # noqa: E402
+
+ORDER = ["ippc2006/tireworld", "ippc2008/triangle-tireworld", "ippc2006/blocksworld", "ippc2006/ex-blocksworld",
+         "ippc2008/blocksworld", "ippc2008/ex-blocksworld"]
+PLANNERS = [("random", "random", {}), ("lrtdp", "lrtdp", {"seconds": "2"}),
+            ("ffr-all-outcomes", "external", {}), ("ffr-most-likely", "external", {"determinize": "most-likely"}),
+            ("prada", "prada", {})]
+
+
+def load_problem(path: Path):
+    return load(path.parent / "domain.pddl", path) if "ippc2006" in str(path) else load(path)
+
+
+def cell(path: Path, planner: str, opts: dict, episodes: int, steps: int) -> dict:
+    domain, problem = load_problem(path)
+    env, task = ppddl_world(domain, problem)
+    model = ppddl_model(domain, problem, task, need_rules=planner == "prada")
+    wins, lengths, dead, decisions = 0, [], 0, 0
+    t = time.perf_counter()
+    for seed in range(episodes):
+        ep = run_episode(env, make_planner(planner, model, opts, seed), steps, seed)
+        decisions += len(ep.steps) + ep.dead_end
+        dead += ep.dead_end
+        if ep.success:
+            wins += 1
+            lengths.append(len(ep.steps))
+    spent = time.perf_counter() - t
+    return {"successes": wins, "episodes": episodes, "mean_steps": sum(lengths) / len(lengths) if lengths else None,
+            "dead_ends": dead, "seconds_per_decision": spent / max(decisions, 1), "seconds": spent}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=str(ROOT / "tests" / "data" / "ippc"))
+    ap.add_argument("--out", required=True, help="JSON lines, appended")
+    ap.add_argument("--episodes", type=int, default=20)
+    ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--only", nargs="*", help="problem folders, e.g. ippc2008/triangle-tireworld")
+    args = ap.parse_args()
+    for folder in args.only or ORDER:
+        for path in sorted((Path(args.data) / folder).glob("p*.pddl")):
+            for label, planner, opts in PLANNERS:
+                row = {"problem": f"{folder}/{path.stem}", "planner": label, "steps": args.steps,
+                       **cell(path, planner, opts, args.episodes, args.steps)}
+                print(json.dumps(row), flush=True)
+                with open(args.out, "a") as f:
+                    f.write(json.dumps(row) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
