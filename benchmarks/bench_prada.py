@@ -8,6 +8,11 @@ run, so machine noise cancels).
 The model: ``--model DIR`` (a learned model directory), or else one built here from 9 random
 traces of the tower cell abstracted with its ground-truth ``inhand`` and ``on`` (what a good
 learned unary and binary symbol are), with rules and reward learned as ``groundsym learn`` does.
+
+``--before REV``: side by side with ``planners/prada.py`` as it was at commit REV (checked out in a
+temporary git worktree and imported under another name), on the tower model and on IPPC 2008
+triangle-tireworld p03 (its true rules): decision times alternate between the two versions in one
+run, and the rule tables' memory is reported for each.
 """
 
 from __future__ import annotations
@@ -85,8 +90,11 @@ def main() -> int:
     ap.add_argument("--model", help="a learned model directory (default: build one from the tower sim)")
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--before", help="a git revision: compare with planners/prada.py at that commit")
     args = ap.parse_args()
     pm, state, objects = load(args.model) if args.model else build_model(args.seed)
+    if args.before:
+        return side_by_side(args.before, args.repeats, [("tower", pm, state, objects), triangle_p03()])
     obs = Observation(objects, (), state)
     planner = prada.PradaPlanner(pm, {"horizon": "4", "samples": "500"}, seed=0)
     t = time.perf_counter()
@@ -129,6 +137,56 @@ def main() -> int:
     core.sample(b0, rng)
     vec = time.perf_counter() - t
     print(f"500 samples one at a time: {loop * 1e3:.0f} ms; vectorised: {vec * 1e3:.1f} ms; ratio {loop / vec:.0f}x")
+    return 0
+
+
+def triangle_p03() -> tuple:
+    from groundsym.episode import ppddl_model, ppddl_world
+    from groundsym.ppddl.parser import load as load_ppddl
+
+    domain, problem = load_ppddl(ROOT / "tests/data/ippc/ippc2008/triangle-tireworld/p03.pddl")
+    _, task = ppddl_world(domain, problem)
+    return "triangle-tireworld p03", ppddl_model(domain, problem, task), task.initial_state, tuple(sorted(task.objects))
+
+
+def table_bytes(g) -> int:
+    """Bytes of the rule tables (dense arrays, or a sparse matrix's data and indices)."""
+    def size(m) -> int:
+        return m.nbytes if isinstance(m, np.ndarray) else m.data.nbytes + m.indices.nbytes + m.indptr.nbytes
+    return size(g.set_true) + size(g.touched)
+
+
+def side_by_side(rev: str, repeats: int, cases: list) -> int:
+    import importlib.util
+    import subprocess
+
+    wt = Path(tempfile.mkdtemp(prefix="groundsym-before-")) / "tree"
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(wt), rev], check=True,
+                   capture_output=True)
+    try:
+        spec = importlib.util.spec_from_file_location("prada_before", wt / "planners" / "prada.py")
+        before = importlib.util.module_from_spec(spec)
+        sys.modules["prada_before"] = before      # dataclasses look their module up by name
+        spec.loader.exec_module(before)
+        print(f"{'case':24s} {'version':8s} {'decision ms (median)':>21s} {'rule tables MB':>15s}")
+        for name, pm, state, objects in cases:
+            obs = Observation(objects, (), state)
+            planners = {v: m.PradaPlanner(pm, {"horizon": "4", "samples": "500"}, seed=0)
+                        for v, m in (("before", before), ("after", prada))}
+            times: dict[str, list[float]] = {v: [] for v in planners}
+            for p in planners.values():
+                p.choose(obs)                             # grounding and warm-up
+            for _ in range(repeats):                      # alternate, so machine noise hits both
+                for v, p in planners.items():
+                    t = time.perf_counter()
+                    p.choose(obs)
+                    times[v].append(time.perf_counter() - t)
+            for v, p in planners.items():
+                g = p.core(objects, state).g
+                print(f"{name:24s} {v:8s} {np.median(times[v]) * 1e3:21.1f} {table_bytes(g) / 1e6:15.2f}")
+            print(f"{name:24s} ratio before/after: {np.median(times['before']) / np.median(times['after']):.2f}x")
+    finally:
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], capture_output=True)
     return 0
 
 

@@ -8,7 +8,10 @@ so a run cut short keeps the rows it has. Problems run in the order given (defau
 worlds first, then the blocks worlds), planners in the order RANDOM, LRTDP, FF-Replan
 all-outcomes, most-likely, PRADA.
 
-    nice -n 10 .venv/bin/python benchmarks/bench_ippc_table.py --data tests/data/ippc --out ippc.jsonl
+    nice -n 10 .venv/bin/python benchmarks/ippc_table.py --out ippc.jsonl
+    .venv/bin/python benchmarks/ippc_table.py --out ippc.jsonl --markdown
+
+(Not named bench_*: make bench would run it, and it takes hours.)
 """
 
 from __future__ import annotations
@@ -55,6 +58,28 @@ def cell(path: Path, planner: str, opts: dict, episodes: int, steps: int) -> dic
             "dead_ends": dead, "seconds_per_decision": spent / max(decisions, 1), "seconds": spent}
 
 
+def markdown(path: Path, data: Path) -> str:
+    """One row per problem; a cell is ``successes/episodes, mean steps, dead ends, s/decision``."""
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    got = {(r["problem"], r["planner"]): r for r in rows}
+    head = "| problem | " + " | ".join(p for p, _, _ in PLANNERS) + " |"
+    out = [head, "|" + "---|" * (len(PLANNERS) + 1)]
+    for folder in ORDER:
+        for f in sorted((data / folder).glob("p*.pddl")):
+            name = f"{folder}/{f.stem}"
+            cells = []
+            for label, _, _ in PLANNERS:
+                r = got.get((name, label))
+                if r is None:
+                    cells.append("not measured")
+                    continue
+                steps = f"{r['mean_steps']:.1f}" if r["mean_steps"] is not None else "-"
+                dead = f", {r['dead_ends']} dead" if r["dead_ends"] else ""
+                cells.append(f"{r['successes']}/{r['episodes']}, {steps} st{dead}, {r['seconds_per_decision']:.2g} s")
+            out.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(ROOT / "tests" / "data" / "ippc"))
@@ -62,7 +87,11 @@ def main() -> int:
     ap.add_argument("--episodes", type=int, default=20)
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--only", nargs="*", help="problem folders, e.g. ippc2008/triangle-tireworld")
+    ap.add_argument("--markdown", action="store_true", help="print --out as a table (rows not run: not measured)")
     args = ap.parse_args()
+    if args.markdown:
+        print(markdown(Path(args.out), Path(args.data)))
+        return 0
     for folder in args.only or ORDER:
         for path in sorted((Path(args.data) / folder).glob("p*.pddl")):
             for label, planner, opts in PLANNERS:
