@@ -134,9 +134,10 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
     ax.plot(mm, [x["grasped"] / x["attempts"] for x in p], "o-", label="grasp")
     ax.plot(mm, [x["stacked"] / max(x["grasped"], 1) for x in p], "s-", label="stack, given a grasp")
     ax.plot(mm, [x["stacked"] / x["attempts"] for x in p], "^-", label="pick-and-place")
-    if all("builder" in r for r in results):
-        ax.errorbar(mm, [r["builder"]["share"] for r in results], [r["builder"]["stderr"] for r in results],
-                    fmt="d-", capsize=3, label="scripted builder, share of V*")
+    built = [r for r in results if "builder" in r]
+    if built:
+        ax.errorbar([r["noise"] * 1000 for r in built], [r["builder"]["share"] for r in built],
+                    [r["builder"]["stderr"] for r in built], fmt="d-", capsize=3, label="scripted builder, share of V*")
     ax.axhline(0.9, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("motor noise: std per axis (mm)")
     ax.set_ylabel("success rate / share of V*")

@@ -41,7 +41,8 @@ OPTIONS: tuple[SimOption, ...] = (
     SimOption("cubes", int, 7, "number of cubes"),
     SimOption("big", int, None, "how many of the cubes are big (default: 3/7 of them, rounded: 3 of 7)"),
     SimOption("balls", int, 0, "number of balls"),
-    SimOption("noise", float, 0.01, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target"),
+    SimOption("noise", float, 0.0075, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target "
+              "(default chosen from examples/tower_reliability.py, docs/tower.md)"),
     SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
     SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
     SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
@@ -83,7 +84,7 @@ def _check(opts: dict[str, Any]) -> None:
 
 
 class TowerSim:
-    """The tower cell; ``TowerSim(cubes=7, noise="0.01")`` takes option values or strings."""
+    """The tower cell; ``TowerSim(cubes=7, noise="0.0075")`` takes option values or strings."""
 
     name: ClassVar[str] = "tower"
     OPTIONS: ClassVar[tuple[SimOption, ...]] = OPTIONS

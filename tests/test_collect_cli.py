@@ -25,7 +25,7 @@ def test_collect_writes_what_collect_traces_makes(tmp_path, capsys):
     ds = read_traces(out)
     meta = ds.meta
     assert meta["sim"] == "tower" and meta["seed"] == 4
-    assert meta["options"] == {"cubes": 3, "big": 1, "balls": 1, "noise": 0.01, "small_size": 0.04,
+    assert meta["options"] == {"cubes": 3, "big": 1, "balls": 1, "noise": 0.0075, "small_size": 0.04,
                                "big_size": 0.05, "ball_size": 0.045}
     assert meta["command"].endswith("-o " + str(out)) and meta["version"]
     assert ds.feature_names == ("x", "y", "z", "size")

@@ -384,7 +384,7 @@ def test_stacking_succeeds_in_most_trials_at_default_noise():
     """Grasp a free cube, open over another free cube: on(held, other) in most of 40 trials."""
     results = [(g, ok) for _, _, _, g, ok in stack_trials(40, any_two_cubes)]
     grasped, stacked = sum(g for g, _ in results), sum(ok for _, ok in results)
-    print(f"stacking at noise 0.01: {stacked}/40 on(held, other), {grasped}/40 grasps")
+    print(f"stacking at the default noise: {stacked}/40 on(held, other), {grasped}/40 grasps")
     assert stacked > 20 and grasped > 20
 
 
@@ -433,7 +433,7 @@ def test_covered_cubes_are_never_grasped_at_default_noise():
             s = sim.step(A("closeHandAround", bottom))
             assert A("inhand", bottom) not in s.truth
             standing += A("on", top, bottom) in s.truth     # the hand may knock the top cube off
-    print(f"covered grasps at noise 0.01: 0/{trials} succeeded, {standing}/{trials} towers still standing")
+    print(f"covered grasps at the default noise: 0/{trials} succeeded, {standing}/{trials} towers still standing")
     assert trials >= 10
 
 
