@@ -41,7 +41,7 @@ img { max-width: 100%; border: 1px solid var(--line); }
 .bar { height: .7rem; background: var(--accent); border-radius: 2px; }
 .bar.noise { background: #b0b7c0; }
 .strip { display: flex; flex-wrap: wrap; gap: .8rem; }
-.strip figure { margin: 0; flex: 0 0 auto; width: 380px; }
+.strip figure { margin: 0; flex: 0 0 auto; width: 360px; }
 .strip figcaption { font-size: .85rem; margin-top: .25rem; }
 """
 
