@@ -73,11 +73,19 @@ class Grounding:
         return {a: float(row[i]) for i, a in enumerate(self.atoms)}
 
     @cached_property
-    def changing(self) -> tuple[np.ndarray, Any, Any]:
+    def changing(self) -> tuple[np.ndarray | None, Any, Any]:
         """(the belief columns some rule touches, ``touched`` and ``set_true`` on those columns):
-        a transition only computes those (on triangle-tireworld p03, 100 of 2453 atoms)."""
+        a transition only computes those (on triangle-tireworld p03, 100 of 2453 atoms); None and
+        the whole tables when most columns change (the tower). Tables of at most 2e6 entries are
+        made dense here (BLAS products beat sparse ones on small tables)."""
         cols = np.unique(self.touched.indices)
-        return cols, self.touched[:, cols].tocsc(), self.set_true[:, cols].tocsc()
+        if 2 * len(cols) > self.touched.shape[1]:     # most columns change: no gain in selecting
+            cols, touched, set_true = None, self.touched, self.set_true
+        else:
+            touched, set_true = self.touched[:, cols], self.set_true[:, cols]
+        if touched.shape[0] * touched.shape[1] <= 2_000_000:     # small (<= 16 MB): dense, BLAS products
+            return cols, touched.toarray(), set_true.toarray()
+        return cols, touched.tocsc(), set_true.tocsc()
 
 
 def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, int],
@@ -206,8 +214,14 @@ def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray) -
     touches change: the products cost the tables' non-zeros times the rows, not rules x atoms x rows."""
     Usel = U * (g.rule_group[None, :] == chosen[:, None])
     cols, touched, set_true = g.changing
+    if isinstance(touched, np.ndarray):
+        off, on = Usel @ touched, Usel @ set_true
+    else:
+        off, on = (touched.T @ Usel.T).T, (set_true.T @ Usel.T).T
+    if cols is None:
+        return B * (1.0 - off) + on
     out = B.copy()
-    out[:, cols] = B[:, cols] * (1.0 - (touched.T @ Usel.T).T) + (set_true.T @ Usel.T).T
+    out[:, cols] = B[:, cols] * (1.0 - off) + on
     return out
 
 
