@@ -98,11 +98,13 @@ def test_exported_domains_parse_in_plado_and_our_parser(bw_model, tower_model, r
 
     runs = [(bw_model, ["--goal", "(on a b)", "--determinize", "all-outcomes"]),
             (bw_model, ["--noise", "pessimistic", "--determinize", "most-likely", "--strips"]),
-            (tower_model, ["--goal", "(on o1 o2)", "--determinize", "all-outcomes"]),
-            (rbf_model, ["--determinize", "all-outcomes"]),
-            (rbf_model, ["--noise", "pessimistic", "--determinize", "all-outcomes", "--strips"])]
+            (tower_model, ["--goal", "(on o1 o2)", "--determinize", "all-outcomes"])]
     learned = json.loads((rbf_model / "symbols.json").read_text())["symbols"]
     assert learned and all("centre" in s for s in learned)
+    # a goal over a learned symbol (the derived one depends on what the short search found)
+    goal = f"({learned[0]['name']} o1{' o2' if learned[0]['arity'] == 2 else ''})"
+    runs += [(rbf_model, ["--goal", goal, "--determinize", "all-outcomes"]),
+             (rbf_model, ["--goal", goal, "--noise", "pessimistic", "--determinize", "all-outcomes", "--strips"])]
     for i, (model, extra) in enumerate(runs):
         out = tmp_path / str(i)
         assert main(["export-domain", str(model), "-o", str(out), *extra]) == 0
@@ -110,7 +112,7 @@ def test_exported_domains_parse_in_plado_and_our_parser(bw_model, tower_model, r
             ours, problem = load(out / d, out / p)
             task = PladoTask(*pp.parse_and_normalize(str(out / d), str(out / p)))
             assert {a.name for a in task.actions} == {a.name.lower() for a in ours.actions}, (extra, d)
-            assert len(problem.init) > 0
+            assert len(problem.init) > 0 or model is rbf_model    # its first scene may hold no learned atom
         if model is rbf_model:              # the learned symbols' meanings reached the domain
             text = (out / "domain.ppddl").read_text()
             assert all(f"({s['name']} ?x1" in text for s in learned) and " cm" in text
