@@ -33,6 +33,7 @@ import numpy as np
 from .errors import UserError
 from .fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json
 from .grounding import grounded
+from .sim import cell_identity
 from .progress import Progress
 
 RESULTS_SCHEMA = "groundsym.results/1"
@@ -66,6 +67,7 @@ class EvalConfig:
 
         d = asdict(self)
         d["sim_options"] = dict(sorted(self.sim_options.items()))
+        d["sim_cell"] = cell_identity(self.sim, self.sim_options)   # defaults and cell version too
         d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
         learned = not self.truth_symbols
         d["anneal"] = self.anneal_config().to_doc() if learned else None

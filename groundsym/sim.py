@@ -113,6 +113,18 @@ def cell_meta(sim: Any) -> dict[str, Any]:
     return {} if version is None else {"cell_version": int(version)}
 
 
+def cell_identity(name: str, given: Mapping[str, Any]) -> dict[str, Any]:
+    """The sim's options with its defaults filled in, and its cell version: what results made with
+    ``--sim NAME --sim-opt given`` depend on beyond the options a user typed (a default that
+    changes, such as the tower's noise, must not mix old and new results)."""
+    from .registry import get_sim_class
+
+    cls = get_sim_class(name)
+    spec = getattr(cls, "OPTIONS", None)
+    options = parse_options(name, spec, given) if spec else dict(given)
+    return {"options": {k: options[k] for k in sorted(options)}, **cell_meta(cls)}
+
+
 def warn_if_older_cell(meta: Mapping[str, Any], where: str) -> bool:
     """One warning line on stderr when ``meta`` (of traces, a model or results) was made by an
     older version of its sim's cell than the one installed; a file without ``cell_version`` comes

@@ -99,3 +99,22 @@ def test_fingerprint_covers_the_search_and_loss_settings(tmp_path, capsys):
                  "-o", str(tmp_path / "e"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--evals" in err and "Traceback" not in err
+
+
+def test_fingerprint_covers_the_sims_defaults_and_cell_version(monkeypatch):
+    """A resumed folder must not mix units of a cell whose defaults or version changed."""
+    import dataclasses
+
+    import sims.tower as tower
+
+    cfg = EvalConfig(sim="tower", methods=("random",), symbol_data=(40,), model_traces=(3,))
+    before = cfg.fingerprint()
+    assert cfg.key()["sim_cell"]["options"]["noise"] == tower.TowerSim(cubes=1).options["noise"]
+    monkeypatch.setattr(tower.TowerSim, "CELL_VERSION", tower.TowerSim.CELL_VERSION + 1)
+    assert cfg.fingerprint() != before
+    monkeypatch.undo()
+    noise = [o for o in tower.OPTIONS if o.name == "noise"][0]
+    monkeypatch.setattr(tower, "OPTIONS", tuple(o if o.name != "noise" else dataclasses.replace(o, default=0.02)
+                                                for o in tower.OPTIONS))
+    monkeypatch.setattr(tower.TowerSim, "OPTIONS", tower.OPTIONS)
+    assert noise.default != 0.02 and cfg.fingerprint() != before
