@@ -1,6 +1,6 @@
 """PRADA's sparse rule tables and restricted groundings give the dense computation's numbers.
 
-Truth: the dense formula of the factored-frontier transition (ALGORITHMS.md B.3) written out here
+Truth: the dense formula of the factored-frontier transition (Lang & Toussaint 2010) written out here
 with numpy, and the unrestricted grounding's values of the same action sequences."""
 
 from __future__ import annotations
