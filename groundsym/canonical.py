@@ -138,13 +138,23 @@ def _colour_order(col: np.ndarray, lock: np.ndarray) -> np.ndarray:
     return np.lexsort((col, -lock.astype(np.int64)), axis=-1)
 
 
-def _untwinned_ties(groups: np.ndarray, col: np.ndarray, perms: np.ndarray) -> np.ndarray:
-    """Rows in which two objects of one colour are not interchangeable (twins are an equivalence
-    relation, so comparing neighbours in colour order is enough)."""
+def _needing_search(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
+                    perms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows in which two objects of one colour are not interchangeable, with their twin groups.
+
+    Twins are an equivalence relation, so comparing neighbours in colour order is enough; they
+    are computed only for rows that have a tie at all (most rows have none, and the twin test
+    costs ``M^3`` per row)."""
     rows = np.arange(len(col))[:, None]
     i, j = perms[:, :-1], perms[:, 1:]
     tied = col[rows, i] == col[rows, j]
-    return np.flatnonzero((tied & (groups[rows, i] != groups[rows, j])).any(1))
+    cand = np.flatnonzero(tied.any(1))
+    if not len(cand):
+        return cand, np.zeros((0, col.shape[1]), dtype=np.int64)
+    groups = np.argmax(twins(ucode[cand], ecode[cand]), axis=2)
+    r = np.arange(len(cand))[:, None]
+    bad = (tied[cand] & (groups[r, i[cand]] != groups[r, j[cand]])).any(1)
+    return cand[bad], groups[bad]
 
 
 def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
@@ -168,12 +178,11 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
                       lock[idx, perms])
     if m < 2:
         return out, perms
-    groups = np.argmax(twins(ucode, ecode), axis=2)
-    for k in _untwinned_ties(groups, col, perms):
+    for k, groups in zip(*_needing_search(ucode, ecode, col, perms)):
         raw = encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
         hit = cache.get(raw) if cache is not None else None
         if hit is None:
-            hit = _Search(unary[k], binary[k], lock[k], ecode[k], groups[k]).run(col[k])
+            hit = _Search(unary[k], binary[k], lock[k], ecode[k], groups).run(col[k])
             if cache is not None:
                 if len(cache) > 100_000:
                     cache.clear()
@@ -298,8 +307,8 @@ def search_leaves(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> in
     ucode, ecode = object_codes(unary[None], lock[None]), codes(binary[None])
     col = colours(ucode, ecode)
     perms = _colour_order(col, lock[None])
-    groups = np.argmax(twins(ucode, ecode), axis=2)
-    if unary.shape[0] < 2 or not len(_untwinned_ties(groups, col, perms)):
+    rows, groups = _needing_search(ucode, ecode, col, perms)
+    if unary.shape[0] < 2 or not len(rows):
         return 0
     search = _Search(unary, binary, lock, ecode[0], groups[0])
     search.run(col[0])
