@@ -138,6 +138,16 @@ def test_constant_reward_omits_the_goal_and_says_why(tower_model, tmp_path):
     assert "(:goal" not in text and "no goal: the reward is constant (0) in the data" in text
 
 
+def _execute(domain, problem, plan):
+    """The determinised task and the state a plan ends in (each step must be deterministic)."""
+    task = Task(domain, problem)
+    s = task.initial_state
+    for step in plan:
+        (succ,) = task.distribution(s, step)
+        s = succ.state
+    return task, s
+
+
 def test_determinised_export_is_solved_by_fast_downward(tower_model, tmp_path):
     code = main(["export-domain", str(tower_model), "-o", str(tmp_path), "--goal", "(on o1 o2) (on o2 o3)",
                  "--determinize", "all-outcomes"])
@@ -145,11 +155,7 @@ def test_determinised_export_is_solved_by_fast_downward(tower_model, tmp_path):
     plain, plain_problem = load(tmp_path / "domain.pddl", tmp_path / "problem.pddl")
     plan = solve(plain, plain_problem)
     assert plan
-    task = Task(plain, plain_problem)
-    s = task.initial_state
-    for step in plan:
-        (succ,) = task.distribution(s, step)
-        s = succ.state
+    task, s = _execute(plain, plain_problem, plan)
     assert task.goal_holds(s)
     domain, _ = load(tmp_path / "domain.ppddl")
     prims = primitive_plan(domain, plan)
@@ -237,11 +243,7 @@ def test_pyperplan_solves_the_strips_determinisation_of_a_learned_blocks_world(b
     assert "(=" not in text and "forall" not in text and "exists" not in text
     plan = solve(plain, plain_problem, planner="pyperplan")
     assert plan
-    task = Task(plain, plain_problem)
-    s = task.initial_state
-    for step in plan:
-        (succ,) = task.distribution(s, step)
-        s = succ.state
+    task, s = _execute(plain, plain_problem, plan)
     assert task.goal_holds(s) and {parse_atom("(on a b)"), parse_atom("(on b c)")} <= s
 
 
