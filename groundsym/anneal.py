@@ -95,26 +95,25 @@ def _slots(cfg: AnnealConfig) -> list[tuple[int, str]]:
 _POINTS: dict[int, tuple] = {}
 
 
-def _points(data: LossData, change_tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Object and distinct-pair feature vectors of all scenes, and those of objects (pairs with an
-    object) that a primitive moved (by more than ``change_tol`` of a feature's spread, the loss's
-    setting), before and after the move (memoised for the last data and tolerance)."""
+    object) that a primitive moved (by more than the ``change_tol`` the data was prepared with,
+    as a share of a feature's spread), before and after the move (memoised for the last data)."""
     hit = _POINTS.get(id(data))
-    if hit is None or hit[0] is not data or hit[5] != change_tol:
+    if hit is None or hit[0] is not data:
         m = data.features.shape[1]
         off = ~np.eye(m, dtype=bool)
         unary = data.features.reshape(-1, data.features.shape[-1])
         pairs = data.pairs[:, off].reshape(-1, data.pairs.shape[-1])
         moved = (np.abs(data.features[data.post] - data.features[data.pre]) / data.unary_scale).max(-1) \
-            > change_tol                                                           # (T, M)
+            > data.change_tol                                                      # (T, M)
         scenes = np.concatenate([data.pre, data.post])
         mv = np.concatenate([moved, moved])
         mu = data.features[scenes][mv]
         pair_mv = (mv[:, :, None] | mv[:, None, :]) & off[None]
         mp = data.pairs[scenes][pair_mv]
         _POINTS.clear()
-        hit = _POINTS[id(data)] = (data, unary, pairs, mu if len(mu) else unary, mp if len(mp) else pairs,
-                                   change_tol)
+        hit = _POINTS[id(data)] = (data, unary, pairs, mu if len(mu) else unary, mp if len(mp) else pairs)
     return hit[1], hit[2], hit[3], hit[4]
 
 
@@ -148,7 +147,7 @@ def _random_symbol(rng: np.random.Generator, arity: int, name: str, data: LossDa
     Without the scaling most proposals are never or almost always true (random widths over several
     dimensions rarely fit the data), and a search wastes its re-seeds on them.
     """
-    unary, pairs, moved_u, moved_p = _points(data, data.change_tol)
+    unary, pairs, moved_u, moved_p = _points(data)
     pts = unary if arity == 1 else pairs
     pool = pts if rng.random() >= cfg.p_moved else (moved_u if arity == 1 else moved_p)
     centre = pool[int(rng.integers(len(pool)))]

@@ -52,8 +52,8 @@ def test_proposals_use_the_change_tolerance_the_data_was_prepared_with():
     ds = read_traces(Path(__file__).resolve().parent / "data" / "tower_16.json")   # real jitter: small moves
     loose, strict = prepare(ds, LossConfig(change_tol=0.01)), prepare(ds, LossConfig(change_tol=2.0))
     assert (loose.change_tol, strict.change_tol) == (0.01, 2.0)
-    moved_loose = _points(loose, loose.change_tol)[2]
-    moved_strict = _points(strict, strict.change_tol)[2]
+    moved_loose = _points(loose)[2]
+    moved_strict = _points(strict)[2]
     assert len(moved_strict) < len(moved_loose)
 
 
