@@ -5,8 +5,9 @@ Each cell runs ``--episodes`` episodes (seeds 0..K-1, each planner built afresh 
 mean steps of the successful episodes, dead ends the planner proved, and seconds per decision
 (wall time of the cell over the decisions made). Lines are appended to ``--out`` as cells finish,
 so a run cut short keeps the rows it has. Problems run in the order given (default: the tyre
-worlds first, then the blocks worlds), planners in the order RANDOM, LRTDP, FF-Replan
-all-outcomes, most-likely, PRADA.
+worlds first, then the blocks worlds), planners in the order RANDOM, LRTDP (h_max), LRTDP (h_add),
+FF-Replan all-outcomes, most-likely, PRADA. LRTDP keeps its values across the episodes of a cell
+(``share=1``, its default), as a planner running the IPPC's rounds of one problem may.
 
     nice -n 10 .venv/bin/python benchmarks/ippc_table.py --out ippc.jsonl
     .venv/bin/python benchmarks/ippc_table.py --out ippc.jsonl --markdown
@@ -32,6 +33,7 @@ from groundsym.ppddl.parser import load  # noqa: E402
 ORDER = ["ippc2006/tireworld", "ippc2008/triangle-tireworld", "ippc2006/blocksworld", "ippc2006/ex-blocksworld",
          "ippc2008/blocksworld", "ippc2008/ex-blocksworld"]
 PLANNERS = [("random", "random", {}), ("lrtdp", "lrtdp", {"seconds": "2"}),
+            ("lrtdp-hadd", "lrtdp", {"seconds": "2", "heuristic": "hadd"}),
             ("ffr-all-outcomes", "external", {}), ("ffr-most-likely", "external", {"determinize": "most-likely"}),
             ("prada", "prada", {})]
 
@@ -87,6 +89,7 @@ def main() -> int:
     ap.add_argument("--episodes", type=int, default=20)
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--only", nargs="*", help="problem folders, e.g. ippc2008/triangle-tireworld")
+    ap.add_argument("--planners", nargs="*", help="column labels to run, e.g. random prada (default: all)")
     ap.add_argument("--markdown", action="store_true", help="print --out as a table (rows not run: not measured)")
     args = ap.parse_args()
     if args.markdown:
@@ -95,6 +98,8 @@ def main() -> int:
     for folder in args.only or ORDER:
         for path in sorted((Path(args.data) / folder).glob("p*.pddl")):
             for label, planner, opts in PLANNERS:
+                if args.planners and label not in args.planners:
+                    continue
                 row = {"problem": f"{folder}/{path.stem}", "planner": label, "steps": args.steps,
                        **cell(path, planner, opts, args.episodes, args.steps)}
                 print(json.dumps(row), flush=True)

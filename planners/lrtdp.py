@@ -11,22 +11,33 @@ penalty, the usual way to keep an SSP with dead ends finite: with the default 50
 gets stuck with probability p pays 500p, so reaching the goal for sure is worth up to 500 extra
 steps). Reward effects of the domain are ignored: the planner plans for the goal.
 
-The heuristic is h_max on the all-outcomes determinisation, relaxed further: delete effects,
-negative and non-conjunctive preconditions and the conditions of ``when`` are ignored, and every
-outcome of an action is an action of its own (Bonet & Geffner 2001). It is admissible: no real
-trajectory reaches the goal in fewer steps than the relaxed one needs. Where it is infinite the
-goal is unreachable in the domain, so the state is a proven dead end.
+The heuristic (``heuristic=``, :mod:`planners.relaxation`) is h_max of the all-outcomes
+determinisation by default (admissible: the solved values are optimal), or h_add (not admissible,
+far better informed where the goal is many atoms, as in blocks worlds: h_max's weak values make
+trials wander for minutes there). Where either is infinite the goal is unreachable in the domain,
+so the state is a proven dead end.
 
 Per decision, trials run from the current state until it is labelled solved (its greedy policy
 has converged to within ``epsilon`` on every state it reaches) or the budget (``trials`` or
-``seconds``) runs out; the greedy action is then run. Values and labels are kept across the
-decisions of an episode. Successor sampling in trials uses the planner's seed.
+``seconds``) runs out; the greedy action of the values so far is then run. Successor sampling in
+trials uses the planner's seed.
+
+The search (states, values, labels, successors) is kept across the decisions of an episode and,
+with ``share=1`` (the default), across the episodes of one process on the same problem: a table
+is keyed by the domain's and problem's printed text and every option that changes values
+(heuristic, dead-end cost, epsilon), and the 4 most recent tables are kept. As in the IPPC,
+where a planner ran 30 rounds of one problem, later episodes start from what earlier ones
+learned. ``share=0`` gives every episode a fresh table.
+
+States are interned: each distinct state is one int, so values, labels and successor lists are
+list lookups, and a state's frozenset is hashed once, when it is first met.
 """
 
 from __future__ import annotations
 
-import heapq
+import hashlib
 import time
+from collections import OrderedDict
 from typing import Any, Mapping
 
 import numpy as np
@@ -34,84 +45,114 @@ import numpy as np
 from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.planner import Decision, Observation, PlannerOption, PlanningModel, parse_planner_options, positive
-from groundsym.ppddl.ast import AndEffect, Probabilistic, When
 
-INF = float("inf")
+from .relaxation import HEURISTICS, INF, Relaxation, relaxed_goal_atoms
 
-
-class Relaxation:
-    """h_max over the ground actions of a task, with preconditions and adds as atom ids."""
-
-    def __init__(self, task: Any, goal_atoms: frozenset) -> None:
-        ids: dict[Atom, int] = {}
-
-        def idx(a: Atom) -> int:
-            return ids.setdefault(a, len(ids))
-
-        self.pre: list[list[int]] = []
-        self.add: list[list[int]] = []
-        triggered, always = task._trigger_index()
-        ground = [g for gs in triggered.values() for g in gs] + list(always)
-        effects = [_all_outcomes(task, ga) for ga in ground]
-        changing = {a.predicate for outs in effects for _, ad, de, _ in outs for a in ad | de}
-        init = task.initial_state
-        for ga, outs in zip(ground, effects):
-            adds = {a for _, ad, _, _ in outs for a in ad}
-            static = {a for a in ga.pos if a.predicate not in changing}
-            if adds and static <= init:     # static atoms hold in every reachable state as in the start
-                self.pre.append(sorted(idx(a) for a in ga.pos - static))
-                self.add.append(sorted(idx(a) for a in adds))
-        self.ids = ids
-        self.goal = [ids.get(a, -1) for a in goal_atoms]
-        self.users: list[list[int]] = [[] for _ in ids]
-        for k, pre in enumerate(self.pre):
-            for i in pre:
-                self.users[i].append(k)
-
-    def __call__(self, state: frozenset) -> float:
-        if any(g < 0 for g in self.goal):
-            return INF
-        cost = [INF] * len(self.ids)
-        waiting = [len(p) for p in self.pre]
-        heap = [(0.0, self.ids[a]) for a in state if a in self.ids]
-        for _, i in heap:
-            cost[i] = 0.0
-        heapq.heapify(heap)
-        todo = set(self.goal)
-        fired = [k for k, n in enumerate(waiting) if n == 0]
-        for k in fired:
-            self._fire(k, 0.0, cost, heap)
-        while heap and todo:
-            c, i = heapq.heappop(heap)
-            if c > cost[i]:
-                continue
-            todo.discard(i)
-            for k in self.users[i]:
-                waiting[k] -= 1
-                if waiting[k] == 0:
-                    self._fire(k, c, cost, heap)
-        return max((cost[g] for g in self.goal), default=0.0)
-
-    def _fire(self, k: int, c: float, cost: list[float], heap: list) -> None:
-        for j in self.add[k]:
-            if c + 1 < cost[j]:
-                cost[j] = c + 1
-                heapq.heappush(heap, (c + 1, j))
+_SHARED: "OrderedDict[tuple, Search]" = OrderedDict()
+_KEEP = 4          # search tables kept for sharing across episodes (most recently used)
 
 
-def _all_outcomes(task: Any, ga: Any) -> list:
-    """Every outcome of a ground action with the conditions of ``when`` taken as true."""
-    return task._effect(_unconditional(ga.effect), frozenset(), {})
+def _heuristic(text: str) -> str:
+    if text not in HEURISTICS:
+        raise ValueError(f"expected one of {', '.join(HEURISTICS)}")
+    return text
 
 
-def _unconditional(e: Any) -> Any:
-    if isinstance(e, When):
-        return _unconditional(e.effect)
-    if isinstance(e, AndEffect):
-        return AndEffect(tuple(_unconditional(x) for x in e.effects))
-    if isinstance(e, Probabilistic):
-        return Probabilistic(tuple((p, _unconditional(x)) for p, x in e.branches))
-    return e
+def _flag(text: str) -> bool:
+    if text not in ("0", "1"):
+        raise ValueError("expected 0 or 1")
+    return text == "1"
+
+
+class Search:
+    """What LRTDP learns about one problem: interned states with values, labels and successors.
+
+    State ``i`` is ``states[i]``; ``succ[i]`` (filled when the state is expanded) lists
+    ``(ground action, probabilities, successor ids)`` for every applicable ground action, sorted."""
+
+    def __init__(self, task: Any, goal: Any, h: Relaxation, dead: float) -> None:
+        self.task, self.goal, self.h, self.dead = task, goal, h, dead
+        self.index: dict[frozenset, int] = {}
+        self.states: list[frozenset] = []
+        self.value: list[float] = []
+        self.solved: list[bool] = []
+        self.dead_end: list[bool] = []
+        self.actions: list[list[Atom]] = []
+        self.succ: list[list[tuple[Atom, list[float], list[int]]] | None] = []
+
+    def intern(self, states: list[frozenset]) -> list[int]:
+        """Ids of ``states``; new ones are valued in one batch (goal 0, proven dead ends ``dead``, else h)."""
+        new = list(dict.fromkeys(s for s in states if s not in self.index))
+        if new:
+            open_ = [s for s in new if not self.goal.holds(s)]
+            hs = dict(zip(open_, self.h.batch(open_)))
+            for s in new:
+                self._add(s, hs.get(s, 0.0))
+        return [self.index[s] for s in states]
+
+    def _add(self, s: frozenset, h: float) -> None:
+        i = len(self.states)
+        self.index[s] = i
+        self.states.append(s)
+        goal = self.goal.holds(s)
+        acts = [] if goal or h == INF else self.task.applicable_actions(s)
+        dead = not goal and not acts
+        self.value.append(0.0 if goal else self.dead if dead else min(float(h), self.dead))
+        self.solved.append(goal or dead)
+        self.dead_end.append(dead)
+        self.actions.append(acts)
+        self.succ.append(None)
+
+    def successors(self, i: int) -> list[tuple[Atom, list[float], list[int]]]:
+        if self.succ[i] is None:
+            s, task = self.states[i], self.task
+            rows: list[tuple[Atom, list[float], list[frozenset]]] = []
+            for a in self.actions[i]:
+                merged: dict[frozenset, float] = {}
+                for p, adds, dels, _ in task.ground(a).deltas(task, s):
+                    if p > 0:
+                        s2 = (s - dels) | adds
+                        merged[s2] = merged.get(s2, 0.0) + p
+                rows.append((a, list(merged.values()), list(merged)))
+            ids = self.intern([x for _, _, xs in rows for x in xs])
+            out, k = [], 0
+            for a, ps, xs in rows:
+                out.append((a, ps, ids[k:k + len(xs)]))
+                k += len(xs)
+            self.succ[i] = out
+        return self.succ[i]
+
+    def greedy(self, i: int) -> tuple[int, float]:
+        """The index (into ``successors(i)``) of the action of least Q (ties: the first) and that Q,
+        capped at the dead-end cost; (-1, dead) without actions."""
+        value = self.value
+        best, best_q = -1, INF
+        for k, (_, ps, ids) in enumerate(self.successors(i)):
+            q = 1.0
+            for p, j in zip(ps, ids):
+                q += p * value[j]
+            if q < best_q - 1e-12:
+                best, best_q = k, q
+        return best, min(best_q, self.dead)
+
+
+def _search_for(task: Any, model: PlanningModel, opts: Mapping[str, Any], share: bool) -> Search:
+    """A fresh search table, or the one kept for the same problem and value-changing options."""
+    domain, problem = model.ppddl
+    goal_atoms = relaxed_goal_atoms(model.goal.literals)
+    key = None
+    if share:
+        text = hashlib.sha256((str(domain) + "\n" + str(problem)).encode()).hexdigest()
+        key = (text, opts["heuristic"], float(opts["dead_end_cost"]), float(opts["epsilon"]))
+        if key in _SHARED:
+            _SHARED.move_to_end(key)
+            return _SHARED[key]
+    found = Search(task, model.goal, Relaxation(task, goal_atoms, opts["heuristic"]), float(opts["dead_end_cost"]))
+    if key is not None:
+        _SHARED[key] = found
+        while len(_SHARED) > _KEEP:
+            _SHARED.popitem(last=False)
+    return found
 
 
 class LrtdpPlanner:
@@ -125,6 +166,8 @@ class LrtdpPlanner:
         PlannerOption("epsilon", positive(float), 1e-3, "residual below which a state's value has converged"),
         PlannerOption("dead_end_cost", positive(float), 500.0, "cost of a state the goal cannot be reached from"),
         PlannerOption("depth", positive(int, most=1_000_000), 1000, "longest trial, in steps"),
+        PlannerOption("heuristic", _heuristic, "hmax", "hmax (admissible) or hadd (informed, not admissible)"),
+        PlannerOption("share", _flag, "1", "1: keep the values across episodes of the same problem"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
@@ -136,117 +179,79 @@ class LrtdpPlanner:
             raise UserError("--planner lrtdp: the problem has no goal to plan for")
         if model.goal is None:
             raise UserError("--planner lrtdp: only goals that are conjunctions of literals can be planned for")
-        self.task = Task(domain, problem)
-        self.goal = model.goal
-        self.h = Relaxation(self.task, frozenset(l.atom for l in model.goal.literals if l.positive))
-        self.dead = float(self.opts["dead_end_cost"])
+        share = self.opts["share"]
+        share = share if isinstance(share, bool) else _flag(str(share))
+        self.search = _search_for(Task(domain, problem), model, self.opts, share)
+        self.task, self.h, self.dead = self.search.task, self.search.h, self.search.dead
         self.rng = np.random.default_rng(seed)
-        self.value: dict[frozenset, float] = {}
-        self.solved: set[frozenset] = set()
-        self.dead_ends: set[frozenset] = set()       # proven: the goal cannot be reached from them
-        self._succ: dict[frozenset, list[tuple[Atom, list[tuple[float, frozenset]]]]] = {}
 
-    # ------------------------------------------------------------------ the model
-    def successors(self, s: frozenset) -> list[tuple[Atom, list[tuple[float, frozenset]]]]:
-        """(ground action, [(probability, next state)]) for every applicable ground action (sorted)."""
-        if s not in self._succ:
-            out = []
-            for a in self.task.applicable_actions(s):
-                merged: dict[frozenset, float] = {}
-                for p, adds, dels, _ in self.task.ground(a).deltas(self.task, s):
-                    if p > 0:
-                        s2 = (s - dels) | adds
-                        merged[s2] = merged.get(s2, 0.0) + p
-                out.append((a, list(merged.items())))
-            self._succ[s] = [(a, [(p, x) for x, p in d]) for a, d in out]
-        return self._succ[s]
+    # ------------------------------------------------------------------ views by state
+    def value_of(self, s: frozenset) -> float:
+        return self.search.value[self.search.intern([s])[0]]
 
-    def v(self, s: frozenset) -> float:
-        if s not in self.value:
-            if self.goal.holds(s):
-                self.value[s] = 0.0
-                self.solved.add(s)
-            else:
-                h = self.h(s)
-                if h == INF or not self.successors(s):
-                    self.value[s] = self.dead
-                    self.solved.add(s)
-                    self.dead_ends.add(s)
-                else:
-                    self.value[s] = min(h, self.dead)
-        return self.value[s]
-
-    def q(self, dist: list[tuple[float, frozenset]]) -> float:
-        return 1.0 + sum(p * self.v(s2) for p, s2 in dist)
-
-    def greedy(self, s: frozenset) -> tuple[Atom | None, float]:
-        """The action of least Q (ties: the first in sorted order) and that Q, capped at the dead-end cost."""
-        best, best_q = None, INF
-        for a, dist in self.successors(s):
-            qa = self.q(dist)
-            if qa < best_q - 1e-12:
-                best, best_q = a, qa
-        return best, min(best_q, self.dead)
-
-    def residual(self, s: frozenset) -> float:
-        return abs(self.greedy(s)[1] - self.v(s))
+    def is_solved(self, s: frozenset) -> bool:
+        return self.search.solved[self.search.intern([s])[0]]
 
     # ------------------------------------------------------------------ LRTDP
-    def trial(self, s: frozenset) -> None:
-        visited = []
-        while s not in self.solved and len(visited) < self.opts["depth"]:
-            self.v(s)
-            if s in self.solved:
-                break
-            visited.append(s)
-            a, qa = self.greedy(s)
-            self.value[s] = qa
-            dist = dict(self.successors(s))[a]
-            k = int(self.rng.choice(len(dist), p=np.array([p for p, _ in dist]) / sum(p for p, _ in dist)))
-            s = dist[k][1]
+    def trial(self, i: int) -> None:
+        S, visited = self.search, []
+        while not S.solved[i] and len(visited) < self.opts["depth"]:
+            visited.append(i)
+            k, q = S.greedy(i)
+            S.value[i] = q
+            _, ps, ids = S.successors(i)[k]
+            r, acc, pick = self.rng.random() * sum(ps), 0.0, ids[-1]
+            for p, j in zip(ps, ids):
+                acc += p
+                if r < acc:
+                    pick = j
+                    break
+            i = pick
         while visited:
             if not self.check_solved(visited.pop()):
                 break
 
-    def check_solved(self, s: frozenset) -> bool:
-        ok, open_, closed = True, [], []
-        seen = {s}
-        if s not in self.solved:
-            open_.append(s)
+    def check_solved(self, i: int) -> bool:
+        S, eps = self.search, self.opts["epsilon"]
+        ok, open_, closed, seen = True, [], [], {i}
+        if not S.solved[i]:
+            open_.append(i)
         while open_:
             x = open_.pop()
             closed.append(x)
-            self.v(x)
-            if x in self.solved:
+            if S.solved[x]:
                 continue
-            if self.residual(x) > self.opts["epsilon"]:
+            k, q = S.greedy(x)
+            if abs(q - S.value[x]) > eps:
                 ok = False
                 continue
-            a, _ = self.greedy(x)
-            for _, y in dict(self.successors(x))[a]:
-                if y not in self.solved and y not in seen:
+            for y in S.successors(x)[k][2]:
+                if not S.solved[y] and y not in seen:
                     seen.add(y)
                     open_.append(y)
         if ok:
-            self.solved.update(closed)
+            for x in closed:
+                S.solved[x] = True
         else:
             for x in reversed(closed):
-                if x not in self.solved:
-                    self.value[x] = self.greedy(x)[1]
+                if not S.solved[x]:
+                    S.value[x] = S.greedy(x)[1]
         return ok
 
     def choose(self, observation: Observation) -> Decision:
-        s = observation.state
+        S = self.search
+        i = S.intern([observation.state])[0]
         start, trials = time.perf_counter(), 0
-        while (s not in self.solved and trials < self.opts["trials"]
+        while (not S.solved[i] and trials < self.opts["trials"]
                and time.perf_counter() - start < self.opts["seconds"]):
-            self.trial(s)
+            self.trial(i)
             trials += 1
-        a, qa = self.greedy(s)
-        info = {"trials": trials, "solved": s in self.solved, "expected_cost": qa,
-                "seconds": time.perf_counter() - start, "states": len(self.value)}
-        if a is None or s in self.dead_ends:      # proven: the goal cannot be reached from here
+        k, q = S.greedy(i) if not S.dead_end[i] else (-1, S.dead)
+        info = {"trials": trials, "solved": S.solved[i], "expected_cost": q,
+                "seconds": time.perf_counter() - start, "states": len(S.states)}
+        if k < 0:      # proven: the goal cannot be reached from here
             return Decision(observation.actions[0], float("nan"), {**info, "dead_end": True})
+        a = S.successors(i)[k][0]
         name, n = self.task._primitive_of[a.predicate]
         return Decision(Atom(name, a.args[:n]), float("nan"), info)
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from groundsym.episode import ppddl_model, ppddl_world, run_episode
+from groundsym.logic import Atom
 from groundsym.planner import make_planner
 from groundsym.ppddl.parser import load
 
@@ -37,7 +38,7 @@ def _reachable(task):
 
 def test_hmax_is_admissible_and_lrtdp_values_match_value_iteration():
     _, task, model = _setup("p01")
-    planner = make_planner("lrtdp", model, {}, 0)
+    planner = make_planner("lrtdp", model, {"share": "0"}, 0)
     states = _reachable(task)
     goal = model.goal
     dead = planner.dead
@@ -71,8 +72,8 @@ def test_hmax_is_admissible_and_lrtdp_values_match_value_iteration():
             break
     planner.choose(_observation(task))
     s0 = task.initial_state
-    assert s0 in planner.solved
-    assert abs(planner.value[s0] - value[s0]) < 1e-2
+    assert planner.is_solved(s0)
+    assert abs(planner.value_of(s0) - value[s0]) < 1e-2
     assert value[s0] < dead / 10          # the optimum never gets stuck (probability 1 of the goal)
 
 
@@ -99,3 +100,80 @@ def test_lrtdp_reaches_the_goal_on_triangle_tireworld_p01():
 @pytest.mark.parametrize("problem", ["p02", "p03"])
 def test_lrtdp_reaches_the_goal_on_larger_triangle_tireworlds(problem):
     assert _successes(problem) >= 19
+
+
+# ---------------------------------------------------------------------------- h_add and sharing
+BLOCKS = Path(__file__).parent / "data" / "ippc" / "ippc2008" / "blocksworld" / "p01.pddl"
+
+
+def _reference_h(task, goal_atoms, state, combine):
+    """h_max / h_add written from their definition: relaxed ground actions (positive precondition
+    atoms, the adds of every outcome), atom costs relaxed until nothing changes."""
+    import math
+    acts = []
+    for a in task.domain.actions:
+        for args in task.groundings(a.name):
+            ga = task.ground(Atom(a.name, args))
+            if ga is not None:
+                acts.append((ga.pos, {x for _, adds, _, _ in ga.deltas(task, frozenset()) for x in adds}))
+    cost = {x: 0.0 for x in state}
+    changed = True
+    while changed:
+        changed = False
+        for pre, adds in acts:
+            if all(x in cost for x in pre):
+                c = combine([cost[x] for x in pre] or [0.0]) + 1
+                for x in adds:
+                    if c < cost.get(x, math.inf):
+                        cost[x] = c
+                        changed = True
+    parts = [cost.get(x, math.inf) for x in goal_atoms]
+    return combine(parts or [0.0])
+
+
+def test_hadd_and_hmax_equal_their_definition_on_a_random_walk_of_blocksworld():
+    import numpy as np
+    from planners.relaxation import Relaxation, relaxed_goal_atoms
+    domain, prob = load(BLOCKS)
+    env, task = ppddl_world(domain, prob)
+    model = ppddl_model(domain, prob, task, need_rules=False)
+    goal = relaxed_goal_atoms(model.goal.literals)
+    hmax, hadd = Relaxation(task, goal, "hmax"), Relaxation(task, goal, "hadd")
+    rng = np.random.default_rng(0)
+    s, walk = task.initial_state, []
+    for _ in range(30):
+        walk.append(s)
+        acts = task.applicable_actions(s)
+        outs = task.outcomes(s, acts[int(rng.integers(len(acts)))])
+        s = outs[int(rng.integers(len(outs)))].state
+    got_max, got_add = hmax.batch(walk), hadd.batch(walk)
+    for s, m, a in zip(walk, got_max, got_add):
+        assert m == _reference_h(task, goal, s, max)
+        assert a == _reference_h(task, goal, s, sum)
+        assert m <= a
+    assert len(set(got_add)) > 3          # the walk is not all one value
+
+
+def test_lrtdp_with_hadd_stacks_the_2008_blocksworld_p01():
+    domain, prob = load(BLOCKS)
+    env, task = ppddl_world(domain, prob)
+    model = ppddl_model(domain, prob, task, need_rules=False)
+    opts = {"heuristic": "hadd", "trials": "20", "seconds": "1000", "share": "0"}
+    wins = sum(bool(run_episode(env, make_planner("lrtdp", model, opts, seed), 50, seed).success) for seed in range(2))
+    assert wins == 2
+
+
+def test_search_tables_are_shared_by_problem_and_options_only():
+    domain, prob = load(BLOCKS)
+    _, task = ppddl_world(domain, prob)
+    model = ppddl_model(domain, prob, task, need_rules=False)
+    _, _, tyre = _setup("p01")
+    a = make_planner("lrtdp", model, {"heuristic": "hadd", "trials": "3"}, 0)
+    b = make_planner("lrtdp", model, {"heuristic": "hadd"}, 1)
+    c = make_planner("lrtdp", model, {"heuristic": "hmax"}, 0)
+    d = make_planner("lrtdp", tyre, {"heuristic": "hadd"}, 0)
+    e = make_planner("lrtdp", model, {"heuristic": "hadd", "share": "0"}, 0)
+    assert a.search is b.search
+    assert len({id(x.search) for x in (a, c, d, e)}) == 4
+    a.choose(_observation(task))
+    assert b.value_of(task.initial_state) == a.value_of(task.initial_state) > 0
