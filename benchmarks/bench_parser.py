@@ -1,15 +1,19 @@
 """PPDDL parsing scales linearly in the number of actions (issue 15).
 
 A generated domain of N probabilistic actions (each with parameters, a precondition and two
-outcomes, about 130 bytes like IPPC actions) is parsed for several N. Prints the time per N and
-the time per 1,000 actions, measured in this run, so linearity shows as a flat second column; the
-target is 20,000 actions in under 20 s and 100,000 in under 120 s (the duplicate-action check was
-quadratic: 20,000 actions took 67 s). ``--sizes`` changes the list.
+outcomes, about 130 bytes like IPPC actions) is parsed for several N. Prints the wall and CPU time
+per N and the wall time per 1,000 actions, measured in this run, so linearity shows as a flat
+column; the target is 20,000 actions in under 20 s and 100,000 in under 120 s (the duplicate-action
+check was quadratic: 20,000 actions took 67 s). The machine's load average is printed, since a
+shared machine moves wall times several-fold while CPU time moves less. ``--sizes`` changes the
+list; ``--reference N`` also parses N actions with lark alone (``parse_text_lark``, the reference
+the tokenizer-driven reader is tested against) and prints the ratio of the two in this run.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -17,7 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from groundsym.ppddl.parser import parse_text  # noqa: E402
+from groundsym.ppddl.parser import parse_text, parse_text_lark  # noqa: E402
 
 
 def domain_text(n: int) -> str:
@@ -30,18 +34,34 @@ def domain_text(n: int) -> str:
     return head + "".join(action.format(i=i) for i in range(n)) + ")\n"
 
 
+def timed(parse, text: str, n: int) -> tuple[float, float]:
+    """(wall, CPU) seconds of one parse of ``text``, checked to hold its ``n`` actions."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    domains, _ = parse(text, f"<{n} actions>")
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    assert len(domains[0].actions) == n
+    return wall, cpu
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="5000,20000,100000", help="action counts, comma-separated")
+    ap.add_argument("--reference", type=int, default=0, metavar="N",
+                    help="also parse N actions with lark alone and print the ratio (0: not)")
     args = ap.parse_args()
-    print(f"{'actions':>8} {'MB':>6} {'seconds':>8} {'s per 1k actions':>17}")
+    print(f"load average at start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"{'actions':>8} {'MB':>6} {'seconds':>8} {'CPU s':>7} {'s per 1k actions':>17}")
     for n in (int(x) for x in args.sizes.split(",")):
         text = domain_text(n)
-        t = time.perf_counter()
-        domains, _ = parse_text(text, f"<{n} actions>")
-        dt = time.perf_counter() - t
-        assert len(domains[0].actions) == n
-        print(f"{n:>8} {len(text) / 1e6:>6.1f} {dt:>8.2f} {1000 * dt / n:>17.3f}", flush=True)
+        wall, cpu = timed(parse_text, text, n)
+        print(f"{n:>8} {len(text) / 1e6:>6.1f} {wall:>8.2f} {cpu:>7.2f} {1000 * wall / n:>17.3f}", flush=True)
+    if args.reference:
+        text = domain_text(args.reference)
+        fast, fast_cpu = timed(parse_text, text, args.reference)
+        ref, ref_cpu = timed(parse_text_lark, text, args.reference)
+        print(f"{args.reference} actions: lark alone {ref:.2f} s ({ref_cpu:.2f} CPU s), this reader {fast:.2f} s "
+              f"({fast_cpu:.2f} CPU s): {ref / fast:.1f}x wall, {ref_cpu / fast_cpu:.1f}x CPU")
+    print(f"load average at end: {os.getloadavg()[0]:.1f}")
     return 0
 
 

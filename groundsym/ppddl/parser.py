@@ -1,20 +1,24 @@
 """Parse PPDDL domains and problems (as the IPPC wrote them) into :mod:`groundsym.ppddl.ast`.
 
-The lark grammar (``grammar.lark``) does the syntax; this module walks the parse tree top-down
-with the declarations in scope, so that a misspelt predicate, a wrong arity, an undeclared
-variable, type or object, a negative probability or probabilities summing above 1 are reported
-with the file, line and column of the offending text, as one line (a :class:`PPDDLError`).
+The lark grammar (``grammar.lark``) defines the syntax; :mod:`.reader` builds the same parse tree
+several times faster and hands anything it does not accept to lark, whose verdict and message
+stand. This module walks the parse tree top-down with the declarations in scope, so that a
+misspelt predicate, a wrong arity, an undeclared variable, type or object, a negative probability
+or probabilities summing above 1 are reported with the file, line and column of the offending
+text, as one line (a :class:`PPDDLError`).
 
 A file may hold several ``define``s: IPPC-2008 problem files repeat their domain.
 """
 
 from __future__ import annotations
 
+import gc
 import re
+from contextlib import contextmanager
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterable, Mapping
+from typing import Callable, Iterable, Iterator, Mapping
 
 import lark
 import numpy as np
@@ -25,6 +29,7 @@ from ..logic import Atom, Literal
 from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall,
                   ForallEffect, Formula, Imply, Not, Or, Predicate, Probabilistic, Problem, RewardEffect,
                   Typed, When)
+from .reader import NotFast, read
 
 
 class PPDDLError(UserError):
@@ -58,23 +63,42 @@ def _syntax_error(exc: lark.exceptions.LarkError, path: str) -> PPDDLError:
     return PPDDLError(f"{path}: syntax error: {str(exc).splitlines()[0]}")
 
 
-class _Walker:
-    """Builds AST nodes from the lark tree; knows the file name for its error messages."""
+def _lark_position(node: lark.Tree | lark.Token) -> tuple[int | str, int | str]:
+    """Line and column of a node of a tree lark built with positions."""
+    meta = node if isinstance(node, lark.Token) else node.meta
+    return getattr(meta, "line", "?"), getattr(meta, "column", "?")
 
-    def __init__(self, path: str) -> None:
+
+Locate = Callable[["lark.Tree | lark.Token"], "tuple[int | str, int | str]"]
+
+
+@lru_cache(maxsize=4096)
+def _fraction(text: str) -> Fraction | None:
+    """A number as written (cached: a large file repeats its few probabilities, and Fraction's
+    parser is slow); None for ``1/0``."""
+    try:
+        return Fraction(text)
+    except (ValueError, ZeroDivisionError):
+        return None
+
+
+class _Walker:
+    """Builds AST nodes from the parse tree; knows the file name, and how to find a node's line
+    and column (which depends on who built the tree), for its error messages."""
+
+    def __init__(self, path: str, locate: Locate = _lark_position) -> None:
         self.path = path
+        self.locate = locate
 
     def fail(self, node: lark.Tree | lark.Token, msg: str) -> PPDDLError:
-        meta = node if isinstance(node, lark.Token) else node.meta
-        line, col = getattr(meta, "line", "?"), getattr(meta, "column", "?")
+        line, col = self.locate(node)
         return PPDDLError(f"{self.path}:{line}:{col}: {msg}")
 
     # ------------------------------------------------------------------ shared pieces
     def number(self, tok: lark.Token) -> Fraction:
-        try:
-            value = Fraction(str(tok))
-        except (ValueError, ZeroDivisionError):
-            raise self.fail(tok, f"not a number: {tok}") from None
+        value = _fraction(str(tok))
+        if value is None:
+            raise self.fail(tok, f"not a number: {tok}")
         return value
 
     def typed(self, tree: lark.Tree, types: Mapping[str, str] | None) -> tuple[Typed, ...]:
@@ -126,13 +150,13 @@ class _Scope:
         return name
 
     def atom(self, tree: lark.Tree) -> Atom:
-        name_tok, *terms = tree.children
-        pred = self.predicates.get(str(name_tok))
+        children = tree.children
+        pred = self.predicates.get(children[0])
         if pred is None:
-            raise self.w.fail(name_tok, f"unknown predicate {str(name_tok)!r}")
-        if len(terms) != pred.arity:
-            raise self.w.fail(tree, f"{pred.name} takes {pred.arity} argument(s), got {len(terms)}")
-        return Atom(pred.name, tuple(self.term(t) for t in terms))
+            raise self.w.fail(children[0], f"unknown predicate {str(children[0])!r}")
+        if len(children) - 1 != pred.arity:
+            raise self.w.fail(tree, f"{pred.name} takes {pred.arity} argument(s), got {len(children) - 1}")
+        return Atom(pred.name, tuple([self.term(t) for t in children[1:]]))
 
     def formula(self, tree: lark.Tree) -> Formula:
         kind = tree.data
@@ -305,6 +329,33 @@ def parse_text(text: str, path: str | Path = "<string>",
     """All domains and problems in ``text``; problems are checked against a domain of the same
     text or of ``domains`` (by its name) when one is known."""
     _check_depth(text, str(path))
+    with _no_cycle_collection():
+        try:
+            tree, reader = read(text)
+        except NotFast:
+            return parse_text_lark(text, path, domains)
+        return _walk(tree, str(path), domains, reader.locate)
+
+
+@contextmanager
+def _no_cycle_collection() -> Iterator[None]:
+    """Pause Python's cycle collector: a large file makes millions of tree and AST objects, none in
+    a cycle, and the collector's passes over them, triggered by the allocations, took as long as
+    the parse itself (a 10,000-action file: 2.7 s of CPU with it, 1.1 s without)."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def parse_text_lark(text: str, path: str | Path = "<string>",
+                    domains: Mapping[str, Domain] | None = None) -> tuple[list[Domain], list[Problem]]:
+    """:func:`parse_text` with lark's parser alone: the reference :mod:`.reader` is tested against,
+    and the judge of every text the reader does not accept."""
+    _check_depth(text, str(path))
     try:
         tree = _lark().parse(text)
     except lark.exceptions.LarkError as exc:
@@ -315,8 +366,9 @@ def parse_text(text: str, path: str | Path = "<string>",
         return _walk(_lark(positions=True).parse(text), str(path), domains)
 
 
-def _walk(tree: lark.Tree, path: str, domains: Mapping[str, Domain] | None) -> tuple[list[Domain], list[Problem]]:
-    w = _Walker(path)
+def _walk(tree: lark.Tree, path: str, domains: Mapping[str, Domain] | None,
+          locate: Locate = _lark_position) -> tuple[list[Domain], list[Problem]]:
+    w = _Walker(path, locate)
     known = dict(domains or {})
     out_d: list[Domain] = []
     out_p: list[Problem] = []
