@@ -373,7 +373,7 @@ class TowerWorld:
     def _close_on(self, index: int, steps: int = 40) -> bool:
         """Close the fingers; the moment both touch object ``index``, fix the grasp and hold the
         fingers where they are, so they do not squeeze the held object against the fixed
-        constraint (squeezing turned it in the hand)."""
+        constraint (squeezing turned it in the hand; see :meth:`attach` for the contacts)."""
         self._set_fingers(0.0)
         for i in range(steps):
             self.step()
@@ -385,7 +385,14 @@ class TowerWorld:
         return False
 
     def attach(self, index: int) -> bool:
-        """Stabilise the grasp of object ``index`` with a fixed constraint if both fingers touch it."""
+        """Stabilise the grasp of object ``index`` with a fixed constraint if both fingers touch it.
+
+        While the constraint holds, the fingers' contacts with the held object are switched off:
+        the constraint is the grasp, and finger contacts on top of it over-determine the object.
+        With them, a fast wrist turn (the transit home after a grasp) let the solver pivot the
+        cube a few degrees about the finger axis, where the fingers' friction then wedged it off
+        the constraint's pose until the fingers opened (in-hand turns up to 5 deg at 7.5 mm noise,
+        traced per step; without them, under 0.5 deg). The fingers stay where they closed."""
         uid = self.bodies[index].uid
         if not (self.contacts(uid, self.robot, LEFT_FINGER) and self.contacts(uid, self.robot, RIGHT_FINGER)):
             return False
@@ -397,12 +404,21 @@ class TowerWorld:
         self.grasp = pb.createConstraint(self.robot, TCP_LINK, uid, -1, pb.JOINT_FIXED, (0, 0, 0), rel_p, (0, 0, 0),
                                          rel_q, (0, 0, 0, 1), physicsClientId=c)
         pb.changeConstraint(self.grasp, maxForce=200.0, physicsClientId=c)
+        self._finger_contacts(uid, False)
         self.held = index
         return True
 
+    def _finger_contacts(self, uid: int, on: bool) -> None:
+        for finger in (LEFT_FINGER, RIGHT_FINGER):
+            pb.setCollisionFilterPair(self.robot, uid, finger, -1, int(on), physicsClientId=self.client)
+
     def release(self) -> None:
+        """Remove the grasp constraint (the fingers are open by now) and give the fingers their
+        contacts with the object back."""
         if self.grasp is not None:
             pb.removeConstraint(self.grasp, physicsClientId=self.client)
+        if self.held is not None:
+            self._finger_contacts(self.bodies[self.held].uid, True)
         self.grasp = self.held = None
 
     def settled(self) -> bool:

@@ -389,41 +389,57 @@ def test_stacking_succeeds_in_most_trials_at_default_noise():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="not met yet at the default noise: over 95 grasps (seeds 0-99) median 0.67, "
-                   "95th percentile 2.9, max 5.5 deg (20 grasps at 5 mm: max 0.03 deg); where the turn happens "
-                   "(transport, or a held cube pressed on the target before the release) is not yet known")
 def test_a_held_cube_keeps_its_pose_in_the_hand():
-    """Over 100 pick-and-places at the default noise, the held cube's rotation in the hand's frame
-    between the grasp and the release: 95th percentile under 2 deg, maximum under 5 deg."""
-    angles = []
+    """Over 100 pick-and-places at the default noise, the held cube's rotation in the hand's frame,
+    from the moment it is grasped to its release, the largest at any physics step of the hold (a
+    turn that comes back when the fingers open counts too): 95th percentile under 2 deg, maximum
+    under 5 deg."""
+    turns: list[float] = []
     with TowerSim() as sim:
         w = sim.world
+        grasped: list[np.ndarray] = []
 
         def in_hand() -> np.ndarray:
             hp, hq = pb.getLinkState(w.robot, TCP_LINK, physicsClientId=w.client)[4:6]
             op, oq = pb.getBasePositionAndOrientation(w.bodies[w.held].uid, physicsClientId=w.client)
-            inv = pb.invertTransform(hp, hq)
-            return np.array(pb.multiplyTransforms(*inv, op, oq)[1])
+            return np.array(pb.multiplyTransforms(*pb.invertTransform(hp, hq), op, oq)[1])
 
+        def turn() -> float:
+            return float(np.degrees(2 * np.arccos(min(1.0, abs(float(in_hand() @ grasped[0]))))))
+
+        attach, step, release = w.attach, w.step, w.release
+
+        def watched_attach(index: int) -> bool:
+            if attach(index):
+                grasped[:] = [in_hand()]
+                turns.append(0.0)
+                return True
+            return False
+
+        def watched_step(n: int = 1) -> None:
+            for _ in range(n):
+                step()
+                if w.held is not None and grasped:
+                    turns[-1] = max(turns[-1], turn())
+
+        def watched_release() -> None:
+            grasped.clear()
+            release()
+
+        w.attach, w.step, w.release = watched_attach, watched_step, watched_release
+        held = 0
         for seed in range(100):
             sim.reset(seed)
             a, b = any_two_cubes(sim, seed)
             sim.step(A("closeHandAround", a))
-            if w.held is None:
-                continue
-            grasped = in_hand()
-            release = w.release
-
-            def measured_release():
-                angles.append(np.degrees(2 * np.arccos(min(1.0, abs(float(in_hand() @ grasped))))))
-                release()
-            w.release = measured_release
+            held += w.held is not None
             sim.step(A("openHandOver", b))
-            del w.release
-    angles = np.array(angles)
-    print(f"in-hand rotation over {len(angles)} grasps: median {np.median(angles):.3f}, "
-          f"95th percentile {np.percentile(angles, 95):.3f}, max {angles.max():.3f} deg")
-    assert len(angles) >= 90 and np.percentile(angles, 95) < 2.0 and angles.max() < 5.0
+    turns_deg = np.array(turns)
+    print(f"in-hand rotation over {len(turns_deg)} grasps ({held} held after the grasp primitive): median "
+          f"{np.median(turns_deg):.3f}, 95th percentile {np.percentile(turns_deg, 95):.3f}, "
+          f"max {turns_deg.max():.3f} deg")
+    assert held >= 90 and len(turns_deg) >= held
+    assert np.percentile(turns_deg, 95) < 2.0 and turns_deg.max() < 5.0
 
 
 @pytest.mark.slow
