@@ -59,6 +59,8 @@ def collect_traces(sim: Sim, n_traces: int, length: int, seed: int, progress: bo
     bar.close()
     info = {"sim": sim.name, "options": dict(getattr(sim, "options", {})), "seed": seed,
             "traces": n_traces, "length": length, **cell_meta(sim)}
+    if getattr(sim, "pair_feature_names", None):   # a sim's own pair features (not y_i - y_j)
+        info["pair_feature_names"] = list(sim.pair_feature_names)
     if hasattr(sim, "events"):     # what the sim's controller met while collecting (counts), if it keeps any
         info["events"] = {k: int(v) - int(events_before.get(k, 0)) for k, v in sorted(sim.events.items())}
     info.update(meta or {})

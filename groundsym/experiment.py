@@ -130,7 +130,7 @@ def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, d
     loss_cfg = LossConfig()
     data = prepare(ds, loss_cfg, "symbol data")
     result = anneal(data, loss_cfg, cfg.anneal_config(), seed, workers=1)
-    symbols = SymbolSet(tuple(result.symbols), tuple(ds.feature_names))
+    symbols = SymbolSet.for_dataset(result.symbols, ds)
     return symbols, {"symbols": "learned", "loss": result.terms.to_doc(), "evaluations": result.evaluations,
                      "pruned": len(result.pruned)}
 

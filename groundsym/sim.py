@@ -26,6 +26,22 @@ class SimOption:
     kind: Callable[[str], Any]
     default: Any
     doc: str
+    recorded_at_default: bool = True     # False: an option added later, left out of files at its default
+
+
+def recorded_options(spec: tuple[SimOption, ...], options: Mapping[str, Any]) -> dict[str, Any]:
+    """The options a traces file or a result records: all of them, except later additions at their
+    default (so files and results made before such an option existed keep their identity)."""
+    skip = {o.name for o in spec if not o.recorded_at_default and options.get(o.name) == o.default}
+    return {k: v for k, v in options.items() if k not in skip}
+
+
+def feature_names_for(cls: Any, options: Mapping[str, Any]) -> tuple[str, ...]:
+    """The unary feature names an instance of sim class ``cls`` made with ``options`` will have
+    (a sim whose feature space is an option declares ``features_for(options)``), known before the
+    physics starts."""
+    fn = getattr(cls, "features_for", None)
+    return tuple(fn(options)) if fn is not None else tuple(cls.feature_names)
 
 
 def parse_options(sim_name: str, spec: tuple[SimOption, ...], given: Mapping[str, Any]) -> dict[str, Any]:
@@ -121,7 +137,7 @@ def cell_identity(name: str, given: Mapping[str, Any]) -> dict[str, Any]:
 
     cls = get_sim_class(name)
     spec = getattr(cls, "OPTIONS", None)
-    options = parse_options(name, spec, given) if spec else dict(given)
+    options = recorded_options(spec, parse_options(name, spec, given)) if spec else dict(given)
     return {"options": {k: options[k] for k in sorted(options)}, **cell_meta(cls)}
 
 

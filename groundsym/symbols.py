@@ -80,6 +80,19 @@ def pair_feature_names(feature_names: Sequence[str]) -> tuple[str, ...]:
     return tuple(f"d{n}" for n in feature_names)
 
 
+def dataset_pair_names(ds: Dataset, where: str = "traces") -> tuple[str, ...]:
+    """The pair feature names of a dataset: ``meta.pair_feature_names`` when a sim gave its own
+    pair features (the point-cloud tower: differences of means), else ``d<name>`` per feature."""
+    names = ds.meta.get("pair_feature_names")
+    if names is None:
+        return pair_feature_names(ds.feature_names)
+    width = next((s.pairs().shape[-1] for tr in ds.traces for s in tr.scenes[:1]), len(names))
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names) or len(names) != width:
+        raise UserError(f"{where}: meta.pair_feature_names: expected a list of {width} names (the width of the "
+                        f"scenes' pair_features), got {names!r}")
+    return tuple(names)
+
+
 @dataclass(frozen=True, eq=False)
 class SymbolSet:
     """Unary symbols ``u1, u2, ...`` and binary symbols ``b1, b2, ...`` over named feature spaces."""
@@ -96,6 +109,11 @@ class SymbolSet:
             want = len(self.feature_names) if s.arity == 1 else len(self.pair_names)
             if s.centre.shape[0] != want:
                 raise ValueError(f"symbol {s.name}: {s.centre.shape[0]} dimensions, feature space has {want}")
+
+    @classmethod
+    def for_dataset(cls, symbols: Sequence[Symbol], ds: Dataset) -> "SymbolSet":
+        """Symbols learned on ``ds``, over its unary and pair feature spaces."""
+        return cls(tuple(symbols), tuple(ds.feature_names), dataset_pair_names(ds))
 
     @property
     def unary(self) -> tuple[Symbol, ...]:

@@ -71,6 +71,8 @@ def _scene_doc(scene: Scene) -> dict[str, Any]:
         doc["pair_features"] = np.asarray(scene.pair_features, dtype=float).tolist()
     doc["truth"] = [str(a) for a in sorted(scene.truth)]
     doc["reward"] = float(scene.reward)
+    if scene.unseen:
+        doc["unseen"] = list(scene.unseen)
     return doc
 
 
@@ -176,7 +178,15 @@ def _read_scene(r: _Reader, doc: Any, field: str, objects: tuple[str, ...], n_fe
         reward = r.number(r.get(doc, "reward", field, (int, float)), f"{field}.reward")
     else:
         reward = r.number(doc["reward"], f"{field}.reward") if "reward" in doc else 0.0
-    return Scene(objects, feats, reward, truth, pair)
+    return Scene(objects, feats, reward, truth, pair, _read_unseen(r, doc, field, objects))
+
+
+def _read_unseen(r: _Reader, doc: dict, field: str, objects: tuple[str, ...]) -> tuple[str, ...]:
+    """The objects a sensor did not see in the scene (optional; none when absent)."""
+    unseen = doc.get("unseen", [])
+    if not isinstance(unseen, list) or not all(isinstance(o, str) and o in objects for o in unseen):
+        raise r.fail(f"{field}.unseen", f"expected a list of the trace's objects ({', '.join(objects)})")
+    return tuple(unseen)
 
 
 def doc_to_dataset(doc: Any, path: str | Path = "<traces>") -> Dataset:

@@ -24,13 +24,15 @@ def default_pair_features(features: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """One observation. ``pair_features`` is None when it is the default ``y_i - y_j``."""
+    """One observation. ``pair_features`` is None when it is the default ``y_i - y_j``; ``unseen``
+    names the objects a sensor did not see in it (their features are the last ones it saw)."""
 
     objects: tuple[str, ...]
     features: np.ndarray
     reward: float = 0.0
     truth: frozenset = field(default_factory=frozenset)
     pair_features: np.ndarray | None = None
+    unseen: tuple[str, ...] = ()
 
     @property
     def n_objects(self) -> int:

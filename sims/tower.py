@@ -24,9 +24,12 @@ import numpy as np
 from groundsym.errors import UserError
 from groundsym.fileio import atomic_write_bytes
 from groundsym.logic import Atom
-from groundsym.sim import SimOption, parse_options
+from groundsym.pointcloud import FEATURE_NAMES, MIN_POINTS, PAIR_FEATURE_NAMES, features_from_clouds, mean_differences
+from groundsym.sim import SimOption, parse_options, recorded_options
 from groundsym.world import Scene
 
+from .camera_picture import write_camera_png
+from .tower_camera import DepthCamera, Frame
 from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld, pb
 
 GAMMA = 0.8
@@ -36,6 +39,7 @@ REGION_Y = (-0.27, 0.27)
 MIN_GAP = 0.13                     # minimal distance between start centres: room for the open hand
 ON_TABLE_TOL = 0.002               # a lowest point under 2 mm counts as lying on the table (contact slop)
 CONTACT_UP = 0.7                   # a contact whose normal has z above this is "resting on"
+CAMERA_STREAM = 0x63616d           # second word of the camera's seed: [reset seed, this]
 
 OPTIONS: tuple[SimOption, ...] = (
     SimOption("cubes", int, 7, "number of cubes"),
@@ -46,7 +50,16 @@ OPTIONS: tuple[SimOption, ...] = (
     SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
     SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
     SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
+    SimOption("features", str, "pose", "what the learner sees of each object: pose (x, y, z, size from the simulator) "
+              "or pointcloud (mean and shape of the object's points seen by the depth camera, docs/perception.md)",
+              recorded_at_default=False),
+    SimOption("depth_noise", float, 0.0, "depth camera: std (m) of the depth noise at 1 m depth, growing with "
+              "depth squared (features=pointcloud)", recorded_at_default=False),
+    SimOption("depth_dropout", float, 0.0, "depth camera: probability that a pixel returns no depth "
+              "(features=pointcloud)", recorded_at_default=False),
 )
+FEATURE_SPACES = ("pose", "pointcloud")
+POSE_FEATURES = ("x", "y", "z", "size")
 
 
 def resolve_options(given: dict[str, Any]) -> dict[str, Any]:
@@ -81,6 +94,16 @@ def _check(opts: dict[str, Any]) -> None:
         raise bad("ball_size", "small cubes, big cubes and balls need three distinct sizes")
     if opts["big_size"] <= opts["small_size"]:
         raise bad("big_size", "must be larger than small_size")
+    if opts["features"] not in FEATURE_SPACES:
+        raise bad("features", f"unknown feature space (known: {', '.join(FEATURE_SPACES)})")
+    if not 0.0 <= opts["depth_noise"] <= 0.05:
+        raise bad("depth_noise", "expected a standard deviation between 0 and 0.05 m (at 1 m depth)")
+    if not 0.0 <= opts["depth_dropout"] < 1.0:
+        raise bad("depth_dropout", "expected a probability in [0, 1)")
+    if opts["features"] == "pose":
+        for key in ("depth_noise", "depth_dropout"):
+            if opts[key]:
+                raise bad(key, "the depth camera is used with features=pointcloud only")
 
 
 class TowerSim:
@@ -90,18 +113,30 @@ class TowerSim:
     OPTIONS: ClassVar[tuple[SimOption, ...]] = OPTIONS
     # 2: converged IK, straight Cartesian moves, rigid grasps, guards on every arm link (issue 13)
     CELL_VERSION: ClassVar[int] = 2
-    feature_names = ("x", "y", "z", "size")
+    feature_names = POSE_FEATURES                 # an instance's own: see features_for
     primitives = {"closeHandAround": 1, "openHandOver": 1}
     truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1}
     episode_length = EPISODE_LENGTH
     gamma = GAMMA
 
     def __init__(self, **options: Any) -> None:
-        self.options = resolve_options(options)
-        self.objects = tuple(f"o{i + 1}" for i in range(self.options["cubes"] + self.options["balls"]))
+        opts = resolve_options(options)
+        self.options = recorded_options(OPTIONS, opts)       # what traces record (see SimOption)
+        self.objects = tuple(f"o{i + 1}" for i in range(opts["cubes"] + opts["balls"]))
         self.world = TowerWorld()
         self.rng = np.random.default_rng(0)
         self.kinds: list[tuple[str, float]] = []
+        self.feature_names = self.features_for(opts)
+        self.pair_feature_names = PAIR_FEATURE_NAMES if opts["features"] == "pointcloud" else None
+        self.camera = DepthCamera(opts["depth_noise"], opts["depth_dropout"]) if opts["features"] == "pointcloud" \
+            else None
+        self.seen_features: np.ndarray | None = None   # each object's features when last seen
+        self.frame: Frame | None = None                # the camera's last capture
+
+    @classmethod
+    def features_for(cls, options: dict[str, Any]) -> tuple[str, ...]:
+        """The feature names of a cell made with ``options`` (known before the physics starts)."""
+        return FEATURE_NAMES if resolve_options(options)["features"] == "pointcloud" else POSE_FEATURES
 
     # ------------------------------------------------------------------ episodes
 
@@ -112,6 +147,9 @@ class TowerSim:
         and options give the same trace bit for bit.
         """
         self.rng = np.random.default_rng(seed)
+        if self.camera is not None:                  # its own stream: depth noise never shifts motor noise
+            self.camera.seed(np.random.default_rng([seed, CAMERA_STREAM]))
+        self.seen_features = None
         o = self.options
         kinds = ([("cube", o["big_size"])] * o["big"] + [("cube", o["small_size"])] * (o["cubes"] - o["big"])
                  + [("ball", o["ball_size"])] * o["balls"])
@@ -147,12 +185,26 @@ class TowerSim:
     # ------------------------------------------------------------------ observation
 
     def scene(self) -> Scene:
+        """What the learner sees (poses, or the camera's point clouds), the reward and the truth
+        (both from the simulator, whatever the features)."""
         pos, orn = self.world.poses()
         sizes = np.array([size for _, size in self.kinds])
-        features = np.column_stack([pos, sizes])
         held = self._inhand()
         lowest = lowest_points(pos, orn, sizes, [shape == "ball" for shape, _ in self.kinds])
-        return Scene(self.objects, features, self._reward(lowest, held), self._truth(pos, held))
+        reward, truth = self._reward(lowest, held), self._truth(pos, held)
+        if self.camera is None:
+            return Scene(self.objects, np.column_stack([pos, sizes]), reward, truth)
+        features, seen = self.perceive()
+        unseen = tuple(o for o, s in zip(self.objects, seen) if not s)
+        return Scene(self.objects, features, reward, truth, mean_differences(features), unseen)
+
+    def perceive(self) -> tuple[np.ndarray, np.ndarray]:
+        """Point-cloud features of every object from one camera frame, and which were seen; an
+        object with too few points keeps the features it had when last seen."""
+        self.frame = self.camera.capture(self.world.client)
+        clouds = self.camera.clouds(self.frame, [b.uid for b in self.world.bodies])
+        self.seen_features, seen = features_from_clouds(clouds, self.seen_features)
+        return self.seen_features.copy(), seen
 
     def _reward(self, lowest: np.ndarray, held: set[int]) -> float:
         cubes = [i for i, (shape, _) in enumerate(self.kinds) if shape == "cube"]
@@ -204,8 +256,15 @@ class TowerSim:
     # ------------------------------------------------------------------ pictures and cleanup
 
     def render(self, path: str | Path, width: int = 640, height: int = 480) -> None:
-        """Write a PNG of the cell (pybullet's software renderer), objects labelled with their ids."""
-        write_png(path, self.picture(width, height), self._labels(width, height))
+        """Write a PNG of the cell (pybullet's software renderer), objects labelled with their ids;
+        with ``features=pointcloud``, beside it what the depth camera saw (sims/camera_picture.py)."""
+        view, labels = self.picture(width, height), self._labels(width, height)
+        if self.camera is None or self.frame is None:
+            write_png(path, view, labels)
+            return
+        clouds = self.camera.clouds(self.frame, [b.uid for b in self.world.bodies])
+        unseen = tuple(o for o, c in zip(self.objects, clouds) if len(c) < MIN_POINTS)
+        write_camera_png(path, view, labels, self.frame, clouds, self.objects, unseen)
 
     def picture(self, width: int, height: int) -> np.ndarray:
         c = self.world.client

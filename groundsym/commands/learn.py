@@ -20,8 +20,8 @@ from ..progress import Progress
 from ..provenance import provenance
 from ..sim import split_key_values, warn_if_older_cell
 from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
-from ..symbols import SymbolSet, dataset_arrays, save_symbols, share_true
-from ..traces import SCHEMA as TRACES_SCHEMA, file_schema, read_traces
+from ..symbols import SymbolSet, dataset_arrays, dataset_pair_names, save_symbols, share_true
+from ..traces import SCHEMA as TRACES_SCHEMA, Dataset, file_schema, read_traces
 from ._common import nonneg_int, positive_int
 
 NAME = "learn"
@@ -140,18 +140,24 @@ def _learn_model(schema: str, args: argparse.Namespace) -> int:
         model_ds = read_traces(model_path) if args.model_data else None
         if model_ds is not None:
             warn_if_older_cell(model_ds.meta, str(model_path))
-        symbols = learn_symbols(args, stage)
+        symbols = learn_symbols(args, stage, model_ds)
         model_ds = model_ds or read_traces(model_path)
         symbols.check_features(model_ds.feature_names, f"{model_path}: meta")
         _learn_rules(symbols.to_symbolic_dataset(model_ds), stage, args)
     return 0
 
 
-def learn_symbols(args: argparse.Namespace, out: Path) -> SymbolSet:
+def learn_symbols(args: argparse.Namespace, out: Path, model_ds: Dataset | None = None) -> SymbolSet:
     """Anneal, prune, write ``symbols.json`` and the training traces into ``out`` (the staging
-    folder of the model directory)."""
+    folder of the model directory). The feature spaces are checked first (``model_ds``: the
+    --model-data traces, which the symbols must be able to read)."""
     ds = read_traces(args.data)
     warn_if_older_cell(ds.meta, str(args.data))
+    dataset_pair_names(ds, str(args.data))
+    if model_ds is not None and model_ds.feature_names != ds.feature_names:
+        raise UserError(f"{args.model_data}: meta.feature_names {list(model_ds.feature_names)} are not those of "
+                        f"{args.data} {list(ds.feature_names)}: symbols learned on one feature space cannot "
+                        f"read the other (collect both with the same --sim-opt features=...)")
     loss_cfg = loss_config(args.loss)
     data = prepare(ds, loss_cfg, str(args.data))
     cfg = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
@@ -167,7 +173,7 @@ def learn_symbols(args: argparse.Namespace, out: Path) -> SymbolSet:
         result = anneal(data, loss_cfg, cfg, args.seed, workers=workers if args.executor == "processes" else 1,
                         checkpoint=args.checkpoint, data_sha256=sha, report=report, executor=ex)
     progress.close(f"best {result.terms}")
-    symbols = SymbolSet(tuple(result.symbols), ds.feature_names)
+    symbols = SymbolSet.for_dataset(result.symbols, ds)
     feats, pairs = dataset_arrays(ds)
     final = result.terms  # over all candidate slots (pruned symbols' literals count as predicted right)
     extra = {

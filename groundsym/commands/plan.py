@@ -15,7 +15,7 @@ from ..fileio import atomic_write_json
 from ..planner import PlanningModel, make_planner
 from ..provenance import provenance
 from ..registry import get_planner_class, get_sim_class, make_sim
-from ..sim import split_key_values, warn_if_older_cell
+from ..sim import feature_names_for, split_key_values, warn_if_older_cell
 from ._common import add_sim_args, nonneg_int, output_path, positive_int, sim_options
 
 NAME = "plan"
@@ -44,10 +44,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="print only the summary")
 
 
-def check_model_fits_sim(model: Any, sim: Any, where: str) -> None:
+def check_model_fits_sim(model: Any, sim: Any, where: str, options: dict[str, str] | None = None) -> None:
     """A model learned in another cell (a tower model on bowling) is refused in one line: its
-    primitives and the features its symbols read must be the simulation's (class attributes, so
-    this runs before the physics engine starts)."""
+    primitives and the features its symbols read must be the simulation's (class attributes and
+    the --sim-opt options, so this runs before the physics engine starts)."""
     if model is None:
         return
     prims = model.primitives
@@ -55,7 +55,7 @@ def check_model_fits_sim(model: Any, sim: Any, where: str) -> None:
         raise UserError(f"{where}: primitives {prims} are not those of --sim {sim.name} "
                         f"{dict(sim.primitives)}: the model was learned in another simulation")
     if model.symbols is not None:
-        model.symbols.check_features(sim.feature_names, f"{where}: symbols.json (--sim {sim.name})")
+        model.symbols.check_features(feature_names_for(sim, options or {}), f"{where}: symbols.json (--sim {sim.name})")
 
 
 def check_render_dir(text: str | None) -> None:
@@ -131,7 +131,7 @@ def _run_sim(args: argparse.Namespace, cls: Any, options: dict[str, str]) -> lis
     from ..modeldir import load_model
 
     model = load_model(args.model) if args.model else None
-    check_model_fits_sim(model, get_sim_class(args.sim), str(args.model))   # before the physics starts
+    check_model_fits_sim(model, get_sim_class(args.sim), str(args.model), sim_options(args))   # before physics
     data = model and (model.symbolic_traces or model.traces)
     if data is not None:
         warn_if_older_cell(data.meta, str(args.model))
