@@ -5,6 +5,12 @@ inference (rule probabilities + transitions), in the reward and in sampling, and
 the vectorised samples over running the same code one sample at a time (a ratio measured in this
 run, so machine noise cancels).
 
+It also times a decision through the command-line path: a child process started with the BLAS
+libraries' default threads (none of the ``*_NUM_THREADS`` variables this benchmark sets for itself)
+builds the planner with ``make_planner`` and decides through ``groundsym.threads.decide``, the
+call the episode loop of ``groundsym plan`` and ``groundsym evaluate`` makes, beside bare
+``choose`` calls under the default threads (alternating, so machine noise hits both).
+
 The model: ``--model DIR`` (a learned model directory), or else one built here from 9 random
 traces of the tower cell abstracted with its ground-truth ``inhand`` and ``on`` (what a good
 learned unary and binary symbol are), with rules and reward learned as ``groundsym learn`` does.
@@ -19,9 +25,11 @@ from __future__ import annotations
 
 import os
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MKL_NUM_THREADS", "1")
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+CLI_CHILD = "GROUNDSYM_BENCH_CLI_PATH"      # set in the child that times the CLI's code path
+if CLI_CHILD not in os.environ:
+    for var in THREAD_VARS:
+        os.environ.setdefault(var, "1")
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
@@ -38,7 +46,7 @@ import planners.prada as prada  # noqa: E402
 from groundsym.planner import Observation, PlanningModel  # noqa: E402
 
 
-def build_model(seed: int) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
+def build_model(seed: int, keep: Path | None = None) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
     from groundsym.collect import collect_traces
     from groundsym.experiment import TruthSymbols
     from groundsym.modeldir import learn_symbolic_model, load_model
@@ -49,8 +57,9 @@ def build_model(seed: int) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
     symbols = TruthSymbols(("inhand", "on"), dict(sim.truth_predicates))
     sds = symbols.to_symbolic_dataset(data)
     with tempfile.TemporaryDirectory() as tmp:
-        learn_symbolic_model(sds, Path(tmp), seed=seed, argv=[], progress=False)
-        m = load_model(tmp)
+        out = keep if keep is not None else Path(tmp)
+        learn_symbolic_model(sds, out, seed=seed, argv=[], progress=False)
+        m = load_model(out)
         rules, reward = m.rules, m.reward
     scene = sim.reset(seed + 1)
     sim.close()
@@ -58,13 +67,48 @@ def build_model(seed: int) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
     return pm, symbols.abstract_scene(scene), tuple(scene.objects)
 
 
-def load(model_dir: str) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
+def load(model_dir: str | Path) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
     from groundsym.modeldir import load_model
 
     m = load_model(model_dir)
     tr = m.symbolic_traces.traces[0]
     pm = PlanningModel(m.primitives, predicates=m.predicates, rules=m.rules, reward=m.reward)
     return pm, tr.states[0], tuple(tr.objects)
+
+
+def cli_path(model_dir: str, repeats: int) -> int:
+    """(In the child, default BLAS threads.) Decisions as the episode loop makes them, beside bare
+    ``choose`` calls; both at horizon 4 with 500 samples, alternating."""
+    from groundsym.planner import make_planner
+    from groundsym.threads import decide
+    from threadpoolctl import threadpool_info
+
+    pm, state, objects = load(model_dir)
+    obs = Observation(objects, (), state)
+    planner = make_planner("prada", pm, {"horizon": "4", "samples": "500"}, 0)
+    decide(planner, obs)                                   # grounding and warm-up
+    times: dict[str, list[float]] = {"decide": [], "choose": []}
+    for _ in range(repeats):
+        for label, call in (("decide", lambda: decide(planner, obs)), ("choose", lambda: planner.choose(obs))):
+            t = time.perf_counter()
+            call()
+            times[label].append(time.perf_counter() - t)
+    threads = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    d, c = np.median(times["decide"]), np.median(times["choose"])
+    print(f"CLI path (groundsym.threads.decide, BLAS 1 thread): median {d * 1e3:.1f} ms over {repeats} "
+          f"(min {min(times['decide']) * 1e3:.1f}); target < 20 ms")
+    print(f"same planner, bare choose with the default BLAS threads {threads}: median {c * 1e3:.1f} ms; "
+          f"ratio {c / d:.2f}x")
+    return 0
+
+
+def run_cli_child(model_dir: Path, repeats: int) -> None:
+    import subprocess
+
+    env = {k: v for k, v in os.environ.items() if k not in THREAD_VARS}
+    env[CLI_CHILD] = "1"
+    subprocess.run([sys.executable, __file__, "--cli-path-child", str(model_dir), "--repeats", str(repeats)],
+                   env=env, check=True)
 
 
 class Timer:
@@ -91,8 +135,22 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--before", help="a git revision: compare with planners/prada.py at that commit")
+    ap.add_argument("--cli-path-child", help=argparse.SUPPRESS)
     args = ap.parse_args()
-    pm, state, objects = load(args.model) if args.model else build_model(args.seed)
+    if args.cli_path_child:
+        return cli_path(args.cli_path_child, args.repeats)
+    keep = Path(tempfile.mkdtemp(prefix="bench-prada-")) / "model"
+    pm, state, objects = load(args.model) if args.model else build_model(args.seed, keep)
+    try:
+        return measure(args, pm, state, objects, Path(args.model) if args.model else keep)
+    finally:
+        import shutil
+
+        shutil.rmtree(keep.parent, ignore_errors=True)
+
+
+def measure(args: argparse.Namespace, pm: PlanningModel, state: frozenset, objects: tuple[str, ...],
+            model_dir: Path) -> int:
     if args.before:
         return side_by_side(args.before, args.repeats, [("tower", pm, state, objects), triangle_p03()])
     obs = Observation(objects, (), state)
@@ -137,6 +195,8 @@ def main() -> int:
     core.sample(b0, rng)
     vec = time.perf_counter() - t
     print(f"500 samples one at a time: {loop * 1e3:.0f} ms; vectorised: {vec * 1e3:.1f} ms; ratio {loop / vec:.0f}x")
+    sys.stdout.flush()
+    run_cli_child(model_dir, max(args.repeats, 20))
     return 0
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from .logic import Atom, format_state
 from .planner import Decision, Goal, Observation
+from .threads import decide
 
 EPISODE_SCHEMA = "groundsym.episode/1"
 
@@ -176,7 +177,7 @@ def run_episode(env: Any, planner: Any, steps: int, seed: int, name: str = "",
     for t in range(steps):
         if env.done() or not obs.actions:     # goal reached, or a dead end: nothing can be run
             break
-        decision: Decision = planner.choose(obs)
+        decision: Decision = decide(planner, obs)     # BLAS on one thread while deciding
         if decision.info.get("dead_end"):
             dead_end = True
             break
