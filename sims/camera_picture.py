@@ -2,8 +2,8 @@
 
 ``groundsym render`` (and ``plan --render-dir``) on a cell with ``features=pointcloud`` writes three
 panels side by side: the usual view of the cell with object ids, the camera's depth image (metres;
-white where there is no depth), and each object's visible points seen from above the table, one
-colour per object, labelled with its id and number of points; unseen objects are listed.
+white where there is no depth), and each object's visible points in 3-D, one colour per object,
+labelled with its id and number of points; unseen objects are listed.
 """
 
 from __future__ import annotations
@@ -40,24 +40,33 @@ def write_camera_png(path: str | Path, view: np.ndarray, labels: list[tuple[floa
     mid.set_title(f"depth image {frame.depth.shape[1]} x {frame.depth.shape[0]} (m; white: no depth)", fontsize=9)
     mid.set_axis_off()
     fig.colorbar(shown, ax=mid, fraction=0.04, pad=0.02)
-    right = fig.add_axes((2 / 3 + 0.04, 0.12, 1 / 3 - 0.06, 0.78))
-    _clouds_from_above(right, clouds, objects, unseen)
+    right = fig.add_axes((2 / 3, 0.0, 1 / 3, 0.95), projection="3d")
+    _clouds_3d(right, clouds, objects, unseen)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
     atomic_write_bytes(path, buf.getvalue())
 
 
-def _clouds_from_above(ax, clouds: list[np.ndarray], objects: tuple[str, ...], unseen: tuple[str, ...]) -> None:
-    """Each object's points in the table plane (x up, y to the left, as the arm sees the table),
-    one colour per object, labelled with its id and number of points."""
+def _clouds_3d(ax, clouds: list[np.ndarray], objects: tuple[str, ...], unseen: tuple[str, ...]) -> None:
+    """Each object's points in 3-D, seen from the camera's side of the table, one colour per object,
+    labelled with its id and number of points (equal scales on all axes)."""
+    pts = [c for c in clouds if len(c)]
     for k, (name, c) in enumerate(zip(objects, clouds)):
         if len(c):
-            ax.scatter(-c[:, 1], c[:, 0], s=1, color=f"C{k % 10}")
-            ax.annotate(f"{name} ({len(c)})", (-c[:, 1].mean(), c[:, 0].mean()), xytext=(6, 6), textcoords="offset points",
-                        fontsize=7)
-    ax.set_xlabel("-y (m)", fontsize=8)
-    ax.set_ylabel("x (m)", fontsize=8)
-    ax.set_title("segmented point clouds, seen from above"
-                 + (f"\nunseen: {', '.join(unseen)}" if unseen else ""), fontsize=9)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.tick_params(labelsize=7)
+            ax.scatter(c[:, 0], c[:, 1], c[:, 2], s=1, color=f"C{k % 10}", depthshade=False)
+            top = c[np.argmax(c[:, 2])]
+            ax.text(top[0], top[1], top[2] + 0.015, f"{name} ({len(c)})", fontsize=7)
+    if pts:
+        allp = np.vstack(pts)
+        lo, hi = allp.min(0), allp.max(0)
+        mid, half = (lo + hi) / 2, max((hi - lo).max() / 2, 0.05)
+        ax.set_xlim(mid[0] - half, mid[0] + half)
+        ax.set_ylim(mid[1] - half, mid[1] + half)
+        ax.set_zlim(0.0, 2 * half)
+    ax.view_init(elev=25, azim=20)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x (m)", fontsize=7)
+    ax.set_ylabel("y (m)", fontsize=7)
+    ax.set_zlabel("z (m)", fontsize=7)
+    ax.tick_params(labelsize=6)
+    ax.set_title("segmented point clouds" + (f" (unseen: {', '.join(unseen)})" if unseen else ""), fontsize=9)

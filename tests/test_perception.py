@@ -263,3 +263,7 @@ def test_cli_refuses_unknown_feature_spaces_and_mixed_ones(tmp_path, capsys):
     assert main(["show", str(tmp_path / "pm"), "--against", str(tmp_path / "pc.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "do not match the symbols' feature space" in err[0]
+    assert main(["plan", "--sim", "tower", "--sim-opt", "cubes=1 balls=1", "--model", str(tmp_path / "pm"),
+                 "--sim-opt", "features=pointcloud", "--steps", "1"]) == 2        # checked before the physics
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'pca_sd1'" in err[0] and "'size'" in err[0]
