@@ -159,10 +159,14 @@ def _ground_atoms(objects: Sequence[str], predicates: Mapping[str, int], rules: 
     for p, k in preds.items():
         tuples = permutations(objects, k) if k > 1 else product(objects, repeat=k)
         out.update(Atom(p, t) for t in tuples)
-    for rule in rules.rules:   # atoms over constants (PPDDL domains) that the permutations miss
+    for rule in rules.rules:   # atoms over constants (PPDDL domains) and repeated objects that the permutations miss
         for lit in list(rule.context) + [c for o in rule.outcomes for c in o.changes]:
-            if not any(is_variable(a) for a in lit.atom.args):
+            args = lit.atom.args
+            names = list(dict.fromkeys(a for a in args if is_variable(a)))
+            if not names:
                 out.add(lit.atom)
+            elif len(names) < sum(map(is_variable, args)):     # (on ?x ?x) of a rule for a repeated-argument move
+                out.update(lit.atom.substitute(dict(zip(names, combo))) for combo in permutations(objects, len(names)))
     return tuple(sorted(out))
 
 

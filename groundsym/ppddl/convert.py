@@ -20,14 +20,16 @@ Import (:func:`domain_to_rules`) reads back the conjunctive subset: precondition
 conjunctions of literals (plus the injectivity, uniqueness and exclusion conjuncts above, which
 are implied by the rule-set semantics), effects that are literals, ``and`` and at most one
 ``probabilistic`` over conjunctions of literals. Mass left unassigned is the noise outcome;
-write ``p (and)`` for a no-change outcome. Reward effects are dropped (rewards are modelled
-apart). So export -> parse -> the same rules, and a hand-written reference domain gives PRADA
-its true rules.
+write ``p (and)`` for a no-change outcome. A branch ``(noise-happened)``, or an effect that is
+``(noise-happened)`` alone (a rule with no outcomes, exported pessimistically), is noise too.
+Reward effects are dropped (rewards are modelled apart). So export -> parse -> the same rules,
+and a hand-written reference domain gives PRADA its true rules.
 """
 
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from fractions import Fraction
 from itertools import permutations, product
 from typing import Mapping, Sequence
@@ -39,6 +41,7 @@ from ..logic import Atom, Literal, is_variable
 from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
 from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
                   Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
+from .coincide import coinciding_variants
 from .simplify import FALSE, simplify
 
 NOISE_PREDICATE = "noise-happened"
@@ -428,22 +431,31 @@ def _subset_rule(action: Action, where: str, context: list[Literal]) -> Rule:
             if lits == [Literal(Atom(NOISE_PREDICATE))]:
                 noise += p
                 continue
-            outcomes.append(Outcome(tuple(fixed + lits)))
+            outcomes.append(Outcome(_deletes_first(fixed + lits)))
             probs.append(float(p))
         rest = prob_blocks[0].rest
         if rest > 0 and fixed:
-            outcomes.append(Outcome(tuple(fixed)))
+            outcomes.append(Outcome(_deletes_first(fixed)))
             probs.append(float(rest))
         else:
             noise += rest
+    elif fixed == [Literal(Atom(NOISE_PREDICATE))]:
+        noise = Fraction(1)                   # a rule that is all noise, exported pessimistically
     else:
-        outcomes.append(Outcome(tuple(fixed)))
+        outcomes.append(Outcome(_deletes_first(fixed)))
         probs.append(1.0)
     action_atom = Atom(prim, tuple(names[:n]))
     try:
         return Rule(action_atom, tuple(context), tuple(outcomes), tuple(probs), float(noise))
     except ValueError as exc:
         raise UserError(f"{where}: {exc}") from None
+
+
+def _deletes_first(changes: Sequence[Literal]) -> tuple[Literal, ...]:
+    """PPDDL applies deletes before adds: an atom an outcome both adds and deletes ends true
+    (``(put-on-block b1 b1)`` adds and deletes ``(clear b1)``)."""
+    added = {l.atom for l in changes if l.positive}
+    return tuple(l for l in changes if l.positive or l.atom not in added)
 
 
 def action_to_rules(action: Action, domain_name: str = "domain") -> list[Rule]:
@@ -618,9 +630,23 @@ def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
     PPDDL, so each primitive's default rule is "no change" (``default_noise`` = 0). Rules that
     only block (named by exclusions, with no action of their own) come back as no-change rules."""
     rules = [r for a in domain.actions for r in action_to_rules(a, domain.name)]
+    rules += _coinciding_rules(domain)
     rules += _blocking_rules(domain, rules)
     prims = sorted({r.action.predicate for r in rules})
     return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims))
+
+
+def _coinciding_rules(domain: Domain) -> list[Rule]:
+    """Rules for the moves whose arguments repeat, where the domain allows them (see
+    :mod:`groundsym.ppddl.coincide`); the rule-form actions of exported domains bind injectively."""
+    out = []
+    for a in domain.actions:
+        prim, n = primitive_of(a)
+        if _RULE_NAME.match(a.name):
+            continue
+        for variant, template in coinciding_variants(a, n, domain):
+            out += [replace(r, action=Atom(prim, template)) for r in action_to_rules(variant, domain.name)]
+    return out
 
 
 def rules_equal(a: Rule, b: Rule, tol: float = 1e-9) -> bool:

@@ -6,7 +6,9 @@ Semantics follow ALGORITHMS.md A.2-A.4 (Pasula et al. 2007, as libPRADA implemen
   literals over the action variables and deictic references (any other variable in the context),
   outcomes (sets of literal changes) with probabilities, and a noise probability ``noise``.
 * A rule *covers* ``(s, a)`` iff exactly one injective binding of its variables makes every
-  context literal true in ``s`` (closed world).
+  context literal true in ``s`` (closed world). An action template may repeat a variable
+  (``(put-on-block ?x ?x)``, read from a PPDDL domain that allows the move): it then covers only
+  actions whose arguments repeat in the same places.
 * A :class:`RuleSet` covers ``(s, a)`` with its unique covering non-default rule, or else with the
   action's default rule (no change, or noise).
 * ``P(s' | s, a) = noise * p_min + sum of p_i over outcomes i that turn s into s'``.
@@ -73,13 +75,13 @@ class Rule:
             raise ValueError("negative probability")
         if abs(sum(self.probs) + self.noise - 1.0) > 1e-6:
             raise ValueError(f"probabilities sum to {sum(self.probs) + self.noise}, not 1")
-        if len(set(self.action.args)) != len(self.action.args) or not all(map(is_variable, self.action.args)):
-            raise ValueError(f"action template needs distinct variables: {self.action}")
+        if not all(map(is_variable, self.action.args)):
+            raise ValueError(f"action template needs variables: {self.action}")
 
     @property
     def variables(self) -> tuple[str, ...]:
-        """Action variables first, then deictic references in order of first appearance."""
-        seen = list(self.action.args)
+        """Action variables first (each once), then deictic references in order of first appearance."""
+        seen = list(dict.fromkeys(self.action.args))
         for lit in self.context:
             for a in lit.atom.args:
                 if is_variable(a) and a not in seen:
@@ -88,7 +90,7 @@ class Rule:
 
     @property
     def deictic(self) -> tuple[str, ...]:
-        return self.variables[len(self.action.args):]
+        return self.variables[len(set(self.action.args)):]
 
     def complexity(self) -> int:
         """PEN(r): context literals plus literals across all outcomes (A.5)."""
@@ -99,8 +101,11 @@ class Rule:
         """Up to ``limit`` bindings of all variables under which the context holds in ``state``."""
         if action.predicate != self.action.predicate or action.arity != self.action.arity:
             return []
-        base = dict(zip(self.action.args, action.args))
-        if injective and len(set(action.args)) != len(action.args):
+        base: dict[str, str] = {}
+        for var, obj in zip(self.action.args, action.args):
+            if base.setdefault(var, obj) != obj:      # a repeated variable needs a repeated argument
+                return []
+        if injective and len(set(action.args)) != len(base):
             return []
         return list(_bindings(self.context, state, base, injective, objects, limit))
 
