@@ -158,7 +158,8 @@ def _needing_search(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
 
 
 def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
-                    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None,
+                    kernels: str = "numpy") -> tuple[np.ndarray, np.ndarray]:
     """Canonical encodings of a batch of states: equal rows if and only if the states are isomorphic.
 
     ``unary`` (N, M, K), ``binary`` (N, M, M, L) with zero diagonals, ``lock`` (N, M) small ints
@@ -166,19 +167,32 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
     (N, W) uint8 and ``perms`` (N, M): canonical position ``c`` of state ``n`` holds its object
     ``perms[n, c]``. Both are functions of each state alone (see the module docstring). States
     that need the individualisation search are memoised in ``cache`` when given, keyed by the
-    state's own encoding (sound, because the result depends on nothing else).
+    state's own encoding (sound, because the result depends on nothing else). ``kernels="numba"``
+    computes the colours, orders and twin tests with the compiled kernels of
+    :mod:`groundsym.compiled` (the same integers; this numpy code is their reference).
     """
     n, m = unary.shape[:2]
     ucode = object_codes(unary, lock)
     ecode = codes(binary)
-    col = colours(ucode, ecode)
-    perms = _colour_order(col, lock)
+    if kernels == "numba":
+        from . import compiled
+        lock = lock.astype(np.int64, copy=False)
+        col = compiled.colours(ucode, ecode)
+        perms = compiled.colour_order(col, lock)
+    else:
+        col = colours(ucode, ecode)
+        perms = _colour_order(col, lock)
     idx = np.arange(n)[:, None]
     out = encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
                       lock[idx, perms])
     if m < 2:
         return out, perms
-    for k, groups in zip(*_needing_search(ucode, ecode, col, perms)):
+    if kernels == "numba":
+        need, all_groups = compiled.needing_search(ucode, ecode, col, perms)
+        search = (np.flatnonzero(need), all_groups[need])
+    else:
+        search = _needing_search(ucode, ecode, col, perms)
+    for k, groups in zip(*search):
         raw = encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
         hit = cache.get(raw) if cache is not None else None
         if hit is None:

@@ -44,6 +44,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from . import compiled
+from .canonical import codes, object_codes
 from .errors import UserError
 from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms,
                          exact_state_distance, permutation_positions, permuted_words, root_bounds, twin_groups, twin_groups_of)
@@ -52,6 +54,7 @@ from .traces import Dataset
 
 
 PREDICT_MODES = ("changes", "successor")
+KERNELS = ("numba", "numpy")
 
 
 @dataclass(frozen=True)
@@ -179,7 +182,14 @@ def prepare(ds: Dataset, config: LossConfig = LossConfig(), path: str = "<traces
 class Loss:
     """``loss(symbols) -> LossTerms`` on one dataset; caches class distances across calls."""
 
-    def __init__(self, data: LossData, config: LossConfig = LossConfig()):
+    def __init__(self, data: LossData, config: LossConfig = LossConfig(), kernels: str | None = None):
+        """``kernels``: "numba" (compiled, :mod:`groundsym.compiled`; the default where numba is
+        installed) or "numpy" (the reference). Both give the same terms, bit for bit."""
+        if kernels is None:
+            kernels = "numba" if compiled.AVAILABLE else "numpy"
+        if kernels not in KERNELS or (kernels == "numba" and not compiled.AVAILABLE):
+            raise ValueError(f"kernels must be one of {', '.join(KERNELS)} (numba installed), got {kernels!r}")
+        self.kernels = kernels
         self.data = data
         self.config = config
         self.sigma = config.reward_sigma or data.sigma
@@ -190,6 +200,8 @@ class Loss:
         self._truth_cache: dict[tuple, np.ndarray] = {}
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
+        self._class_ids: dict[bytes, int] = {}
+        self._pair_memo = compiled.new_memo() if kernels == "numba" else None
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -240,12 +252,15 @@ class Loss:
         of a class with others has those others as its neighbours at distance 0. A lone item's
         neighbours are all members of the nearest other classes, found by branch and bound.
         """
-        codes, perms = canonical_forms(u, b, lock, self._canon_cache)
-        keys = np.concatenate([codes, label.astype(np.uint8)[:, None]], axis=1)
+        forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
+        keys = np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1)
         first, cls = group_rows(keys)
         order = np.argsort(cls, kind="stable")
         bounds = np.searchsorted(cls[order], np.arange(len(first) + 1))
         members = [order[bounds[k]:bounds[k + 1]] for k in range(len(first))]
+        if self.kernels == "numba" and u.shape[1] <= ENUMERATE_MAX:
+            lone = np.flatnonzero(np.diff(bounds) == 1)
+            return self._nearest_compiled(lone, u, b, lock, label, perms, first, keys, cls)
         reps = [self._encoded(u, b, lock, label, perms, int(first[k])) for k in range(len(first))]
         rep_keys = [keys[first[k]].tobytes() for k in range(len(first))]
         profile = _profiles(u, b, first)
@@ -257,7 +272,29 @@ class Loss:
         else:
             for k in lone:
                 hits[k] = self._nearest_class(k, reps, rep_keys, profile, lock_sig)
-        return Neighbourhood(cls, perms, members, hits)
+        return Neighbourhood.from_hits(cls, perms, hits)
+
+    def _nearest_compiled(self, lone: np.ndarray, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray,
+                          perms: np.ndarray, first: np.ndarray, keys: np.ndarray, cls: np.ndarray) -> "Neighbourhood":
+        """:meth:`_nearest_enumerated` through the compiled kernel (the same hits in the same order).
+
+        Classes are interned by their keys (canonical encoding and primitive), so the kernel's
+        pair memo can hold each pair's exact distance across evaluations.
+        """
+        p = perms[first]
+        rows = first[:, None]
+        ru = u[rows, p]
+        rb = b[rows[:, :, None], p[:, :, None], p[:, None, :]]
+        rl = lock[rows, p].astype(np.int64)
+        if len(self._class_ids) > 500_000 or len(self._pair_memo) > 4_000_000:
+            self._class_ids.clear()
+            self._pair_memo = compiled.new_memo()
+        intern = self._class_ids
+        ids = np.array([intern.setdefault(keys[f].tobytes(), len(intern)) for f in first.tolist()], dtype=np.int64)
+        best, hq, hc, hs = compiled.nearest_classes(ru, rb, rl, label[first].astype(np.int64), _profiles(u, b, first),
+                                                    ru.shape[2], lone, object_codes(ru, rl), codes(rb), ids,
+                                                    self._pair_memo)
+        return Neighbourhood(cls, perms, lone, best, hq, hc, hs)
 
     def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
         """Nearest classes of every lone class by bit-parallel enumeration, all queries at once.
@@ -407,91 +444,117 @@ class Loss:
         if n_lit == 0:
             return 0.0
         nb = self.neighbours(u[d.pre], b[d.pre], d.lock, d.label)
-        idx = np.arange(len(d.pre))[:, None]
-        perms = nb.perms
-        succ_u = u[d.post][idx, perms]                                   # successors, canonical order
-        succ_b = b[d.post][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
         changes = self.config.predict == "changes"
+        if self.kernels == "numba":
+            item, mis, weight = compiled.transition_entries(
+                u, b, d.pre, d.post, nb.perms, nb.cls, nb.lone, nb.hit_query, nb.hit_class, nb.hit_sigma, changes)
+        else:
+            item, mis, weight = transition_entries(u, b, d.pre, d.post, nb, changes)
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
-        flat = np.concatenate([succ_u.reshape(len(idx), -1), succ_b.reshape(len(idx), -1)], axis=1)
-        ll = np.zeros(len(d.pre))
-        # isomorphic partners predict through the identity; when all partners' successors agree the
-        # prediction is exact (the usual case), otherwise mix over the distinct successors
-        _, combo = group_rows(np.concatenate([nb.cls.astype(np.int64).view(np.uint8).reshape(len(idx), -1), flat], 1))
-        uniform = np.bincount(nb.cls, minlength=len(nb.members)) == np.bincount(
-            nb.cls, weights=(combo == combo[nb.members_first()[nb.cls]]), minlength=len(nb.members))
-        who: list[np.ndarray] = []   # per lone item and neighbour: the item, the neighbour, the map
-        js: list[np.ndarray] = []
-        sig: list[np.ndarray] = []
-        for k, group in enumerate(nb.members):
-            if len(group) > 1 and uniform[k]:
-                ll[group] = n_lit * log_ok
-                continue
-            if len(group) > 1:
-                pats, inv, cnt = np.unique(flat[group], axis=0, return_inverse=True, return_counts=True)
-                ham = (pats[:, None, :] != pats[None, :, :]).sum(-1)
-                lp = ham * log_eps + (n_lit - ham) * log_ok
-                weight = cnt[None, :] - np.eye(len(pats))        # the other members with each pattern
-                lp = np.where(weight > 0, lp, -np.inf)
-                top = lp.max(1, keepdims=True)
-                tot = (weight * np.exp(lp - top)).sum(1)
-                ll[group] = (top[:, 0] + np.log(tot) - math.log(len(group) - 1))[inv.ravel()]
-                continue
-            i = group[0]
-            hits = nb.hits[k][1]
-            if not hits:             # no comparable neighbour: predict no change
-                mis = int((u[d.pre[i]] != u[d.post[i]]).sum() + (b[d.pre[i]] != b[d.post[i]]).sum())
-                ll[i] = mis * log_eps + (n_lit - mis) * log_ok
-                continue
-            for c, sigma in hits:
-                who.append(np.full(len(nb.members[c]), i))
-                js.append(nb.members[c])
-                sig.append(np.broadcast_to(sigma, (len(nb.members[c]), m)))
-        if js:  # lone items, all at once: each neighbour's prediction, then a mixture per item
-            item, nbr, smap = np.concatenate(who), np.concatenate(js), np.concatenate(sig)
-            pred_u = succ_u[nbr[:, None], smap]
-            pred_b = succ_b[nbr[:, None, None], smap[:, :, None], smap[:, None, :]]
-            if changes:  # the literals the neighbour's primitive changed take its values; the rest stay
-                obj = perms[nbr[:, None], smap]           # neighbour objects in the item's canonical order
-                rows = d.pre[nbr]
-                was_u = u[rows[:, None], obj]
-                was_b = b[rows[:, None, None], obj[:, :, None], obj[:, None, :]]
-                own, now = perms[item], d.pre[item]
-                pred_u = np.where(was_u != pred_u, pred_u, u[now[:, None], own])
-                pred_b = np.where(was_b != pred_b, pred_b, b[now[:, None, None], own[:, :, None], own[:, None, :]])
-            mis = (pred_u != succ_u[item]).sum((1, 2)) + (pred_b != succ_b[item]).sum((1, 2, 3))
-            lp = mis * log_eps + (n_lit - mis) * log_ok
-            items, at = np.unique(item, return_inverse=True)
-            ll[items] = _group_logmeanexp(at.ravel(), lp, len(items))
-        return float(-ll.sum())
+        lp = mis * log_eps + (n_lit - mis) * log_ok
+        return float(-mixture_ll(item, lp, weight, len(d.pre)).sum())
 
     def _reward_nll(self, u: np.ndarray, b: np.ndarray) -> float:
         d = self.data
         n = len(d.pre)
         nb = self.neighbours(u[d.pre], b[d.pre], np.zeros_like(d.lock), np.zeros(n, dtype=np.int64))
+        if self.kernels == "numba":
+            item, other = compiled.reward_entries(nb.cls, nb.lone, nb.hit_query, nb.hit_class)
+        else:
+            item, other = reward_entries(nb)
         s2 = self.sigma ** 2
-        norm = -0.5 * math.log(2 * math.pi * s2)
-        ll = np.zeros(n)
-        who: list[np.ndarray] = []   # per lone item and neighbour: the item, the neighbour
-        nbr: list[np.ndarray] = []
-        for k, group in enumerate(nb.members):
-            if len(group) > 1:
-                r = d.reward[group]
-                lp = norm - (r[:, None] - r[None, :]) ** 2 / (2 * s2)
-                np.fill_diagonal(lp, -np.inf)
-                top = lp.max(1, keepdims=True)
-                ll[group] = top[:, 0] + np.log(np.exp(lp - top).sum(1) / (len(group) - 1))
-                continue
-            hits = nb.hits[k][1]
-            for c, _ in hits:
-                who.append(np.full(len(nb.members[c]), group[0]))
-                nbr.append(nb.members[c])
-        if nbr:  # lone items, all at once: a mixture over each item's nearest neighbours
-            item, other = np.concatenate(who), np.concatenate(nbr)
-            lp = norm - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
-            items, at = np.unique(item, return_inverse=True)
-            ll[items] = _group_logmeanexp(at.ravel(), lp, len(items))
-        return float(-ll.sum())
+        lp = -0.5 * math.log(2 * math.pi * s2) - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
+        return float(-mixture_ll(item, lp, np.ones(len(item)), n).sum())
+
+
+def _sorted_entries(columns: list[list[int]], n: int) -> tuple[np.ndarray, ...]:
+    """Entry columns (item, partner, values...) as arrays, sorted by item, then partner."""
+    arrays = [np.array(c, dtype=np.int64) for c in columns]
+    order = np.argsort(arrays[0] * (n + 1) + arrays[1], kind="stable")
+    return tuple(a[order] for a in arrays)
+
+
+def transition_entries(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray, nb: "Neighbourhood",
+                       changes: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What predicts each transition's successor: entries ``(item, mispredicted literals, weight)``,
+    sorted by item, then the predicting transition (the reference of ``compiled.transition_entries``).
+
+    A member of a class with others is predicted by each other member through the identity (one
+    entry per distinct successor pattern, weighted by how many others have it); a lone item by
+    every member of its nearest classes, through the hit's permutation (with ``changes``: the
+    literals the neighbour's primitive changed take its values, the others keep the item's own);
+    a lone item without a comparable neighbour is predicted to change nothing.
+    """
+    n, m = nb.perms.shape
+    idx = np.arange(n)[:, None]
+    perms = nb.perms
+    succ_u = u[post][idx, perms]                                   # successors, canonical order
+    succ_b = b[post][idx[:, :, None], perms[:, :, None], perms[:, None, :]]
+    flat = np.concatenate([succ_u.reshape(n, -1), succ_b.reshape(n, -1)], axis=1)
+    item: list[int] = []
+    partner: list[int] = []
+    mis: list[int] = []
+    weight: list[int] = []
+    hits = nb.hits
+    for k, group in enumerate(nb.members):
+        if len(group) > 1:
+            first, pattern = group_rows(flat[group])
+            counts = np.bincount(pattern, minlength=len(first))
+            for a, i in enumerate(group.tolist()):
+                for q in range(len(first)):
+                    w = int(counts[q]) - int(pattern[a] == q)   # the other members with pattern q
+                    if w > 0:
+                        item.append(i)
+                        partner.append(int(group[first[q]]))
+                        mis.append(int((flat[i] != flat[group[first[q]]]).sum()))
+                        weight.append(w)
+            continue
+        i = int(group[0])
+        if not hits[k][1]:             # no comparable neighbour: predict no change
+            item.append(i)
+            partner.append(i)
+            mis.append(int((u[pre[i]] != u[post[i]]).sum() + (b[pre[i]] != b[post[i]]).sum()))
+            weight.append(1)
+            continue
+        own, now = perms[i], pre[i]
+        for c, sigma in hits[k][1]:
+            for j in nb.members[c].tolist():
+                obj = perms[j][sigma]                      # neighbour objects in the item's canonical order
+                pred_u = u[post[j]][obj]
+                pred_b = b[post[j]][obj[:, None], obj[None, :]]
+                if changes:  # the literals the neighbour's primitive changed take its values; the rest stay
+                    was_u, was_b = u[pre[j]][obj], b[pre[j]][obj[:, None], obj[None, :]]
+                    pred_u = np.where(was_u != pred_u, pred_u, u[now][own])
+                    pred_b = np.where(was_b != pred_b, pred_b, b[now][own[:, None], own[None, :]])
+                item.append(i)
+                partner.append(j)
+                mis.append(int((pred_u != succ_u[i]).sum() + (pred_b != succ_b[i]).sum()))
+                weight.append(1)
+    item_a, _, mis_a, weight_a = _sorted_entries([item, partner, mis, weight], n)
+    return item_a, mis_a, weight_a
+
+
+def reward_entries(nb: "Neighbourhood") -> tuple[np.ndarray, np.ndarray]:
+    """Who predicts each transition's reward: entries ``(item, neighbour)`` sorted by item, then
+    neighbour (the reference of ``compiled.reward_entries``): the other members of its class,
+    or, for a lone item, every member of its nearest classes."""
+    item: list[int] = []
+    other: list[int] = []
+    members = nb.members
+    hits = nb.hits
+    for k, group in enumerate(members):
+        if len(group) > 1:
+            for i in group.tolist():
+                for j in group.tolist():
+                    if i != j:
+                        item.append(i)
+                        other.append(j)
+            continue
+        for c, _ in hits[k][1]:
+            for j in members[c].tolist():
+                item.append(int(group[0]))
+                other.append(j)
+    return _sorted_entries([item, other], len(nb.cls))
 
 
 class _ClassTable:
@@ -551,36 +614,77 @@ def _first_permutation(qwords: np.ndarray, cwords: np.ndarray, d: float) -> np.n
 class Neighbourhood:
     """Classes of isomorphic items and, for lone items, their nearest classes.
 
-    ``hits[k] = (distance, [(class, sigma), ...])`` for a class ``k`` with one member; ``sigma``
-    maps canonical positions of ``k`` onto canonical positions of ``class``.
+    ``cls`` (N,) class per item (classes numbered in sorted order of their canonical keys) and
+    ``perms`` (N, M) each item's canonical order. Lone classes (one member) are ``lone`` (Q,) with
+    their nearest distance ``best`` (Q,) and the hits as parallel arrays sorted by query, then
+    class: ``hit_query`` (index into ``lone``), ``hit_class`` and ``hit_sigma`` (H, M), which maps
+    canonical positions of the query onto canonical positions of the hit's class.
     """
 
     cls: np.ndarray
     perms: np.ndarray
-    members: list[np.ndarray]
-    hits: dict[int, tuple[float, list[tuple[int, np.ndarray]]]]
+    lone: np.ndarray
+    best: np.ndarray
+    hit_query: np.ndarray
+    hit_class: np.ndarray
+    hit_sigma: np.ndarray
 
-    def members_first(self) -> np.ndarray:
-        return np.array([g[0] for g in self.members])
+    @property
+    def members(self) -> list[np.ndarray]:
+        """Members of each class, in increasing item order."""
+        n = int(self.cls.max()) + 1 if len(self.cls) else 0
+        order = np.argsort(self.cls, kind="stable")
+        bounds = np.searchsorted(self.cls[order], np.arange(n + 1))
+        return [order[bounds[k]:bounds[k + 1]] for k in range(n)]
+
+    @property
+    def hits(self) -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
+        """``hits[k] = (distance, [(class, sigma), ...])`` for each lone class ``k``."""
+        out: dict[int, tuple[float, list[tuple[int, np.ndarray]]]] = {
+            int(k): (float(d), []) for k, d in zip(self.lone.tolist(), self.best.tolist())}
+        for qi, c, sigma in zip(self.hit_query.tolist(), self.hit_class.tolist(), self.hit_sigma):
+            out[int(self.lone[qi])][1].append((int(c), sigma))
+        return out
+
+    @staticmethod
+    def from_hits(cls: np.ndarray, perms: np.ndarray,
+                  hits: dict[int, tuple[float, list[tuple[int, np.ndarray]]]]) -> "Neighbourhood":
+        lone = np.array(sorted(hits), dtype=np.int64)
+        best = np.array([hits[k][0] for k in lone.tolist()], dtype=float)
+        rows = [(qi, c, sigma) for qi, k in enumerate(lone.tolist()) for c, sigma in hits[k][1]]
+        m = perms.shape[1]
+        return Neighbourhood(cls, perms, lone, best, np.array([r[0] for r in rows], dtype=np.int64),
+                             np.array([r[1] for r in rows], dtype=np.int64),
+                             np.array([r[2] for r in rows], dtype=np.int64).reshape(len(rows), m))
+
+
+def mixture_ll(item: np.ndarray, lp: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:
+    """Per item ``0..n-1``: ``log(sum_e weight_e exp(lp_e) / sum_e weight_e)`` over its entries.
+
+    Entries come sorted by item and accumulate in that order (``np.add.at`` is sequential), so
+    the result is a function of the entries alone, whichever kernels produced them. An item
+    without entries gets 0.
+    """
+    top = np.full(n, -np.inf)
+    np.maximum.at(top, item, lp)
+    acc = np.zeros(n)
+    np.add.at(acc, item, weight * np.exp(lp - top[item]))
+    cnt = np.zeros(n)
+    np.add.at(cnt, item, weight)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ll = top + np.log(acc) - np.log(cnt)
+    ll[cnt == 0] = 0.0
+    return ll
 
 
 def group_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ids of equal rows (in sorted order of the rows): (index of each group's first row, id per row)."""
     rows = np.ascontiguousarray(rows)
+    if rows.shape[1] == 0:                # zero-width rows are all equal
+        return np.zeros(min(len(rows), 1), dtype=np.int64), np.zeros(len(rows), dtype=np.int64)
     void = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
     _, first, inv = np.unique(void, return_index=True, return_inverse=True)
     return first, inv.ravel()
-
-
-def _group_logmeanexp(group: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """log(mean(exp(values))) per group id in 0..n-1 (stable)."""
-    top = np.full(n, -np.inf)
-    np.maximum.at(top, group, values)
-    acc = np.zeros(n)
-    np.add.at(acc, group, np.exp(values - top[group]))
-    cnt = np.bincount(group, minlength=n)
-    with np.errstate(divide="ignore"):
-        return top + np.log(acc) - np.log(np.maximum(cnt, 1))
 
 
 def _profiles(u: np.ndarray, b: np.ndarray, reps: np.ndarray) -> np.ndarray:

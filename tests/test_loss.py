@@ -17,7 +17,7 @@ import pytest
 DATA = Path(__file__).resolve().parent / "data"
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.loss import Loss, LossConfig, LossTerms, _group_logmeanexp, active_columns, prepare, width_penalty
+from groundsym.loss import Loss, LossConfig, LossTerms, active_columns, mixture_ll, prepare, width_penalty
 from groundsym.relational import Encoded, naive_state_distance
 from groundsym.symbols import Symbol
 from groundsym.traces import Dataset, Trace, read_traces
@@ -181,11 +181,13 @@ def test_transition_term_matches_a_brute_force_predictor(predict):
     assert got.transition == pytest.approx(total_t, rel=1e-9)
 
 
-def test_group_logmeanexp():
-    g = np.array([0, 0, 2])
-    v = np.array([math.log(1.0), math.log(3.0), -5.0])
-    out = _group_logmeanexp(g, v, 3)
-    assert out[0] == pytest.approx(math.log(2.0)) and out[2] == pytest.approx(-5.0)
+def test_mixture_ll_by_hand():
+    """log of the weighted mean of exp(lp) per item; an item without entries gets 0."""
+    item = np.array([0, 0, 2])
+    lp = np.array([math.log(1.0), math.log(3.0), -5.0])
+    out = mixture_ll(item, lp, np.array([1.0, 3.0, 1.0]), 4)
+    assert out[0] == pytest.approx(math.log((1.0 + 3 * 3.0) / 4)) and out[2] == pytest.approx(-5.0)
+    assert out[1] == 0.0 and out[3] == 0.0
 
 
 def test_bad_data_is_a_user_error():

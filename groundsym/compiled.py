@@ -1,0 +1,623 @@
+"""Compiled (numba) kernels of the symbol loss's miss path, each mirroring a numpy reference.
+
+The loss spends its time, on an abstraction it has not seen, in two places: canonical forms of
+every state (colour refinement, :mod:`groundsym.canonical`) and the nearest classes of every lone
+class (bit-parallel enumeration, ``Loss._nearest_enumerated``). Both are loops over a handful of
+objects and a few thousand permutations, which numpy can only vectorise with large temporaries.
+The kernels here compute the *same* integers (64-bit hashes that wrap the same way, the same
+object orders, distances, first minimising permutations), so the loss is bit for bit the same
+with or without them; ``tests/test_compiled.py`` checks that over thousands of annealing
+evaluations. The numpy code stays the reference (``Loss(..., kernels="numpy")``).
+
+numba compiles on first use and caches the machine code on disk (``cache=True``: beside this
+module, or in ``NUMBA_CACHE_DIR``), so a process pays the compilation once and later processes
+load it. Without numba installed, :data:`AVAILABLE` is False and the loss uses numpy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+try:  # numba is a dependency; the numpy reference keeps the loss usable without it
+    import numba
+    from numba import njit
+    AVAILABLE = True
+except ImportError:  # pragma: no cover - exercised only where numba cannot install
+    numba = None
+    AVAILABLE = False
+
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        return (lambda f: f) if not (len(args) == 1 and callable(args[0])) else args[0]
+
+from .canonical import _M1, _M2, _P
+
+M1, M2 = np.uint64(_M1), np.uint64(_M2)
+P0, P1, P2, P3, P4 = (np.uint64(p) for p in _P[:5])
+INF = np.inf
+
+
+# ----------------------------------------------------------------------------- canonical forms
+
+@njit(cache=True, inline="always")
+def _mix(x):
+    """canonical._mix on one uint64 (multiplication wraps modulo 2^64, as in numpy)."""
+    x = x ^ (x >> np.uint64(33))
+    x = x * M1
+    x = x ^ (x >> np.uint64(33))
+    x = x * M2
+    return x ^ (x >> np.uint64(33))
+
+
+@njit(cache=True)
+def _n_distinct(values):
+    s = np.sort(values)
+    n = 1 if len(s) else 0
+    for i in range(1, len(s)):
+        if s[i] != s[i - 1]:
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def colours(ucode, ecode):
+    """canonical.colours: (N, M) refined colours, each row refined until its own partition is stable."""
+    n, m = ucode.shape
+    col = np.empty((n, m), dtype=np.uint64)
+    for r in range(n):
+        for i in range(m):
+            col[r, i] = _mix(np.uint64(ucode[r, i]) + P0)
+    if m < 2:
+        return col
+    new = np.empty(m, dtype=np.uint64)
+    for r in range(n):
+        classes = _n_distinct(col[r])
+        for _ in range(m):
+            for i in range(m):
+                nb = np.uint64(0)
+                for j in range(m):
+                    if j == i:
+                        continue
+                    c = col[r, j]
+                    t = _mix(c * P3 + np.uint64(ecode[r, i, j]) * P1 + _mix(np.uint64(ecode[r, j, i]) * P2 + c))
+                    nb += t
+                new[i] = _mix(col[r, i] * P4 + nb)
+            now = _n_distinct(new)
+            if now <= classes:
+                break
+            col[r, :] = new
+            classes = now
+            if now >= m:
+                break
+    return col
+
+
+@njit(cache=True)
+def colour_order(col, lock):
+    """canonical._colour_order: per row, objects by descending lock, then colour, then index."""
+    n, m = col.shape
+    perms = np.empty((n, m), dtype=np.int64)
+    for r in range(n):
+        p = perms[r]
+        for i in range(m):
+            p[i] = i
+        for i in range(1, m):       # insertion sort: stable, M is small
+            x = p[i]
+            j = i - 1
+            while j >= 0:
+                y = p[j]
+                if lock[r, y] > lock[r, x] or (lock[r, y] == lock[r, x] and col[r, y] <= col[r, x]):
+                    break
+                p[j + 1] = y
+                j -= 1
+            p[j + 1] = x
+    return perms
+
+
+@njit(cache=True)
+def twin_groups_row(ucode, ecode):
+    """canonical.twin_groups_of for one state: per object, its first interchangeable object."""
+    m = ucode.shape[0]
+    groups = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        groups[i] = i
+        for j in range(i):
+            if ucode[i] != ucode[j] or ecode[i, j] != ecode[j, i]:
+                continue
+            same = True
+            for k in range(m):
+                if k != i and k != j and (ecode[i, k] != ecode[j, k] or ecode[k, i] != ecode[k, j]):
+                    same = False
+                    break
+            if same:
+                groups[i] = j
+                break
+    return groups
+
+
+@njit(cache=True)
+def needing_search(ucode, ecode, col, perms):
+    """canonical._needing_search: rows where two objects of one colour are not twins, and the
+    twin groups of every row (filled for rows with a colour tie; others: identity)."""
+    n, m = col.shape
+    need = np.zeros(n, dtype=np.bool_)
+    groups = np.empty((n, m), dtype=np.int64)
+    for r in range(n):
+        tie = False
+        for c in range(m - 1):
+            if col[r, perms[r, c]] == col[r, perms[r, c + 1]]:
+                tie = True
+                break
+        if not tie:
+            for i in range(m):
+                groups[r, i] = i
+            continue
+        groups[r] = twin_groups_row(ucode[r], ecode[r])
+        for c in range(m - 1):
+            a, b = perms[r, c], perms[r, c + 1]
+            if col[r, a] == col[r, b] and groups[r, a] != groups[r, b]:
+                need[r] = True
+                break
+    return need, groups
+
+
+# ----------------------------------------------------------------------------- nearest classes
+
+@njit(cache=True, inline="always")
+def _popcount(x):
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@njit(cache=True)
+def state_words(unary, binary):
+    """(C, W) uint64: each state's flat bits (unary M*K, then binary M*M*L), bit j in word j // 64."""
+    c, m, k = unary.shape
+    l = binary.shape[3]
+    nbits = m * k + m * m * l
+    w = (nbits + 63) // 64
+    out = np.zeros((c, max(w, 1)), dtype=np.uint64)
+    for s in range(c):
+        for i in range(m):
+            for a in range(k):
+                if unary[s, i, a]:
+                    j = i * k + a
+                    out[s, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
+            for i2 in range(m):
+                for a in range(l):
+                    if binary[s, i, i2, a]:
+                        j = m * k + (i * m + i2) * l + a
+                        out[s, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
+    return out
+
+
+@njit(cache=True)
+def _kept_orders(groups, lock):
+    """Loss._enumerated_orders as permutations (rows: objects in new position order), in
+    itertools (lexicographic) order: the action's arguments first (locks descending) and
+    interchangeable objects in increasing order, generated directly by depth-first search."""
+    m = len(groups)
+    target = -np.sort(-lock)
+    cap = 64
+    out = np.empty((cap, m), dtype=np.int64)
+    n = 0
+    seq = np.empty(m, dtype=np.int64)
+    nxt = np.zeros(m + 1, dtype=np.int64)     # next object to try at each depth
+    used = np.zeros(m, dtype=np.bool_)
+    depth = 0
+    while depth >= 0:
+        if depth == m:
+            if n == cap:
+                cap *= 2
+                grown = np.empty((cap, m), dtype=np.int64)
+                grown[:n] = out[:n]
+                out = grown
+            out[n] = seq
+            n += 1
+            depth -= 1
+            used[seq[depth]] = False
+            continue
+        placed = False
+        o = nxt[depth]
+        while o < m:
+            ok = not used[o] and lock[o] == target[depth]
+            if ok:
+                for e in range(o):            # earlier twins of o must already be placed
+                    if groups[e] == groups[o] and not used[e]:
+                        ok = False
+                        break
+            if ok:
+                seq[depth] = o
+                used[o] = True
+                nxt[depth] = o + 1
+                nxt[depth + 1] = 0
+                depth += 1
+                placed = True
+                break
+            o += 1
+        if not placed:
+            nxt[depth] = 0
+            depth -= 1
+            if depth >= 0:
+                used[seq[depth]] = False
+    return out[:n]
+
+
+@njit(cache=True)
+def _permuted_words(unary, binary, orders, w):
+    """(P, W) the query's bits under each order (position p takes object orders[r, p])."""
+    m, k = unary.shape
+    l = binary.shape[2]
+    p = orders.shape[0]
+    out = np.zeros((p, w), dtype=np.uint64)
+    pos = np.empty(m, dtype=np.int64)
+    for r in range(p):
+        for q in range(m):
+            pos[orders[r, q]] = q
+        for i in range(m):
+            pi = pos[i]
+            for a in range(k):
+                if unary[i, a]:
+                    j = pi * k + a
+                    out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
+            for i2 in range(m):
+                for a in range(l):
+                    if binary[i, i2, a]:
+                        j = m * k + (pi * m + pos[i2]) * l + a
+                        out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
+    return out
+
+
+_SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
+_DIST_SHIFT = 32
+
+
+@njit(cache=True)
+def _pack(dist, orders, f, m):
+    """One pair's exact distance and sigma (query position -> candidate position) as an int64."""
+    v = np.int64(dist) << np.int64(_DIST_SHIFT)
+    for p in range(m):
+        v |= np.int64(p) << np.int64(_SIGMA_BITS * orders[f, p])
+    return v
+
+
+@njit(cache=True)
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
+    """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
+
+    ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
+    canonical order; ``profile`` (C, P) as ``loss._profiles``; ``lone`` (Q,) class indices;
+    ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
+    Candidates are visited in order of the profile bound and skipped once it exceeds the best
+    distance; a candidate's permutations stop at one that reaches its bound.
+
+    ``ids`` (C,) names each class by its canonical encoding (the caller interns the encodings)
+    and ``memo`` (a numba typed dict) holds the exact distance and first minimising permutation
+    of every pair computed before: both are functions of the two encodings alone, so a pair is
+    computed once per process however often the two classes meet again.
+
+    Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
+    sorted by query, then class: sigma maps the query's canonical positions onto the class's.
+    """
+    c_n, m = lock.shape
+    q_n = len(lone)
+    words = state_words(unary, binary)
+    w = words.shape[1]
+    best = np.full(q_n, INF)
+    n_hits = 0
+    hq = np.empty(4 * q_n + 4, dtype=np.int64)
+    hv = np.empty(4 * q_n + 4, dtype=np.int64)
+    hc = np.empty(4 * q_n + 4, dtype=np.int64)
+    bound = np.empty(c_n)
+    packed = np.empty(c_n, dtype=np.int64)
+    mask = np.int64((1 << _DIST_SHIFT) - 1)
+    for qi in range(q_n):
+        q = lone[qi]
+        for c in range(c_n):
+            ok = c != q and labels[c] == labels[q]
+            if ok:
+                for i in range(m):
+                    if lock[c, i] != lock[q, i]:
+                        ok = False
+                        break
+            if not ok:
+                bound[c] = INF
+                continue
+            s = 0.0
+            h = 0.0
+            for f in range(profile.shape[1]):
+                d = abs(profile[q, f] - profile[c, f])
+                if f < n_unary:
+                    s += d
+                else:
+                    h += d
+            bound[c] = s + 0.5 * h
+        order = np.argsort(bound, kind="mergesort")
+        if bound[order[0]] == INF:
+            continue
+        orders = np.empty((0, m), dtype=np.int64)
+        qw = np.empty((0, w), dtype=np.uint64)
+        have_orders = False
+        dist = np.full(c_n, INF)
+        b = INF
+        base = ids[q] << np.int64(32)
+        for oi in range(c_n):
+            c = order[oi]
+            lo = bound[c]
+            if lo == INF or lo > b:
+                break
+            key = base | ids[c]
+            if key in memo:
+                v = memo[key]
+            else:
+                if not have_orders:
+                    orders = _kept_orders(twin_groups_row(ucode[q], ecode[q]), lock[q])
+                    qw = _permuted_words(unary[q], binary[q], orders, w)
+                    have_orders = True
+                dmin = INF
+                arg = 0
+                for r in range(len(orders)):
+                    d = np.uint64(0)
+                    for x in range(w):
+                        d += _popcount(qw[r, x] ^ words[c, x])
+                    fd = float(d)
+                    if fd < dmin:
+                        dmin = fd
+                        arg = r
+                        if fd <= lo:
+                            break
+                v = _pack(dmin, orders, arg, m)
+                memo[key] = v
+            packed[c] = v
+            dv = float(v >> np.int64(_DIST_SHIFT))
+            dist[c] = dv
+            if dv < b:
+                b = dv
+        best[qi] = b
+        for c in range(c_n):
+            if dist[c] == b:
+                if n_hits == len(hq):
+                    hq = np.concatenate((hq, np.empty_like(hq)))
+                    hv = np.concatenate((hv, np.empty_like(hv)))
+                    hc = np.concatenate((hc, np.empty_like(hc)))
+                hq[n_hits] = qi
+                hc[n_hits] = c
+                hv[n_hits] = packed[c] & mask
+                n_hits += 1
+    hs = np.empty((n_hits, m), dtype=np.int64)
+    for t in range(n_hits):
+        for p in range(m):
+            hs[t, p] = (hv[t] >> np.int64(_SIGMA_BITS * p)) & np.int64(7)
+    return best, hq[:n_hits], hc[:n_hits], hs
+
+
+def new_memo():
+    """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
+    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+
+
+# ----------------------------------------------------------------------------- mixture entries
+
+@njit(cache=True)
+def _class_members(cls):
+    """Counting sort of items by class: (order, start) with class k's members order[start[k]:start[k+1]]."""
+    n_cls = 0
+    for c in cls:
+        n_cls = max(n_cls, c + 1)
+    start = np.zeros(n_cls + 1, dtype=np.int64)
+    for c in cls:
+        start[c + 1] += 1
+    for k in range(n_cls):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    order = np.empty(len(cls), dtype=np.int64)
+    for i in range(len(cls)):
+        order[fill[cls[i]]] = i
+        fill[cls[i]] += 1
+    return order, start
+
+
+@njit(cache=True)
+def _sorted(item, partner, cols, n):
+    key = item * (n + 1) + partner
+    order = np.argsort(key, kind="mergesort")
+    return item[order], partner[order], cols[order]
+
+
+@njit(cache=True)
+def _successor_mismatch(u, b, post, perms, i, j):
+    """Literals in which item i's and item j's successors differ, both in canonical order."""
+    m, k = u.shape[1], u.shape[2]
+    l = b.shape[3]
+    mis = 0
+    si, sj = post[i], post[j]
+    for p in range(m):
+        oi, oj = perms[i, p], perms[j, p]
+        for a in range(k):
+            mis += u[si, oi, a] != u[sj, oj, a]
+        for q in range(m):
+            qi, qj = perms[i, q], perms[j, q]
+            for a in range(l):
+                mis += b[si, oi, qi, a] != b[sj, oj, qj, a]
+    return mis
+
+
+@njit(cache=True)
+def transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes):
+    """loss.transition_entries (the numpy reference) compiled: the same entries in the same order."""
+    n, m = perms.shape
+    k_u = u.shape[2]
+    l_b = b.shape[3]
+    order, start = _class_members(cls)
+    cap = 4 * n + 16
+    item = np.empty(cap, dtype=np.int64)
+    partner = np.empty(cap, dtype=np.int64)
+    vals = np.empty((cap, 2), dtype=np.int64)       # mispredicted literals, weight
+    e = 0
+    hit_start = np.zeros(len(lone) + 1, dtype=np.int64)
+    for t in range(len(hq)):
+        hit_start[hq[t] + 1] += 1
+    for q in range(len(lone)):
+        hit_start[q + 1] += hit_start[q]
+    lone_pos = np.full(len(start) - 1, -1, dtype=np.int64)
+    for q in range(len(lone)):
+        lone_pos[lone[q]] = q
+    obj = np.empty(m, dtype=np.int64)
+    for k in range(len(start) - 1):
+        g0, g1 = start[k], start[k + 1]
+        size = g1 - g0
+        need = 0
+        if size > 1:
+            pat = np.empty(size, dtype=np.int64)      # index (in the group) of the first equal successor
+            for a in range(size):
+                pat[a] = a
+                for a2 in range(a):
+                    if pat[a2] == a2 and _successor_mismatch(u, b, post, perms, order[g0 + a], order[g0 + a2]) == 0:
+                        pat[a] = a2
+                        break
+            cnt = np.zeros(size, dtype=np.int64)
+            for a in range(size):
+                cnt[pat[a]] += 1
+            for a in range(size):
+                for q in range(size):
+                    if cnt[q] > 0:
+                        need += 1
+        else:
+            q = lone_pos[k]
+            need = 1
+            for t in range(hit_start[q], hit_start[q + 1]):
+                need += start[hc[t] + 1] - start[hc[t]]
+        while e + need > cap:
+            cap *= 2
+            item = np.concatenate((item, np.empty(cap - len(item), dtype=np.int64)))
+            partner = np.concatenate((partner, np.empty(cap - len(partner), dtype=np.int64)))
+            grown = np.empty((cap, 2), dtype=np.int64)
+            grown[:e] = vals[:e]
+            vals = grown
+        if size > 1:
+            for a in range(size):
+                i = order[g0 + a]
+                for q in range(size):
+                    w = cnt[q] - (1 if pat[a] == q else 0)
+                    if cnt[q] > 0 and w > 0:
+                        j = order[g0 + q]
+                        item[e] = i
+                        partner[e] = j
+                        vals[e, 0] = _successor_mismatch(u, b, post, perms, i, j)
+                        vals[e, 1] = w
+                        e += 1
+            continue
+        i = order[g0]
+        q = lone_pos[k]
+        if hit_start[q] == hit_start[q + 1]:       # no comparable neighbour: predict no change
+            mis = 0
+            for x in range(m):
+                for a in range(k_u):
+                    mis += u[pre[i], x, a] != u[post[i], x, a]
+                for y in range(m):
+                    for a in range(l_b):
+                        mis += b[pre[i], x, y, a] != b[post[i], x, y, a]
+            item[e] = i
+            partner[e] = i
+            vals[e, 0] = mis
+            vals[e, 1] = 1
+            e += 1
+            continue
+        now = pre[i]
+        nxt = post[i]
+        for t in range(hit_start[q], hit_start[q + 1]):
+            c = hc[t]
+            for g in range(start[c], start[c + 1]):
+                j = order[g]
+                for p in range(m):
+                    obj[p] = perms[j, hs[t, p]]
+                mis = 0
+                for p in range(m):
+                    op, own_p = obj[p], perms[i, p]
+                    for a in range(k_u):
+                        pred = u[post[j], op, a]
+                        if changes and u[pre[j], op, a] == pred:
+                            pred = u[now, own_p, a]
+                        mis += pred != u[nxt, own_p, a]
+                    for r in range(m):
+                        orr, own_r = obj[r], perms[i, r]
+                        for a in range(l_b):
+                            pred = b[post[j], op, orr, a]
+                            if changes and b[pre[j], op, orr, a] == pred:
+                                pred = b[now, own_p, own_r, a]
+                            mis += pred != b[nxt, own_p, own_r, a]
+                item[e] = i
+                partner[e] = j
+                vals[e, 0] = mis
+                vals[e, 1] = 1
+                e += 1
+    it, _, vs = _sorted(item[:e], partner[:e], vals[:e], n)
+    return it, vs[:, 0].copy(), vs[:, 1].copy()
+
+
+@njit(cache=True)
+def reward_entries(cls, lone, hq, hc):
+    """loss.reward_entries (the numpy reference) compiled: the same entries in the same order."""
+    n = len(cls)
+    order, start = _class_members(cls)
+    lone_pos = np.full(len(start) - 1, -1, dtype=np.int64)
+    for q in range(len(lone)):
+        lone_pos[lone[q]] = q
+    total = 0
+    for k in range(len(start) - 1):
+        size = start[k + 1] - start[k]
+        if size > 1:
+            total += size * (size - 1)
+    for t in range(len(hq)):
+        total += start[hc[t] + 1] - start[hc[t]]
+    item = np.empty(total, dtype=np.int64)
+    other = np.empty(total, dtype=np.int64)
+    e = 0
+    for k in range(len(start) - 1):
+        g0, g1 = start[k], start[k + 1]
+        if g1 - g0 > 1:
+            for a in range(g0, g1):
+                for a2 in range(g0, g1):
+                    if a != a2:
+                        item[e] = order[a]
+                        other[e] = order[a2]
+                        e += 1
+    for t in range(len(hq)):
+        i = order[start[lone[hq[t]]]]
+        c = hc[t]
+        for g in range(start[c], start[c + 1]):
+            item[e] = i
+            other[e] = order[g]
+            e += 1
+    key = item * (n + 1) + other
+    srt = np.argsort(key, kind="mergesort")
+    return item[srt], other[srt]
+
+
+def warm_up() -> float:
+    """Compile (or load from the disk cache) every kernel on a tiny input; returns the seconds spent.
+
+    Called once per process before timing-sensitive work, so that compilation is reported apart.
+    """
+    import time
+    t0 = time.perf_counter()
+    if AVAILABLE:
+        u = np.zeros((2, 3, 1), dtype=np.uint8)
+        b = np.zeros((2, 3, 3, 1), dtype=np.uint8)
+        b[0, 0, 1, 0] = 1
+        lock = np.zeros((2, 3), dtype=np.int64)
+        ucode = np.zeros((2, 3), dtype=np.int64)
+        ecode = b[..., 0].astype(np.int64)
+        col = colours(ucode, ecode)
+        perms = colour_order(col, lock)
+        needing_search(ucode, ecode, col, perms)
+        prof = np.zeros((2, 7), dtype=np.int64)
+        nearest_classes(u, b, lock, np.zeros(2, dtype=np.int64), prof, 1, np.array([0, 1]), ucode, ecode,
+                        np.arange(2, dtype=np.int64), new_memo())
+        cls = np.array([0, 1], dtype=np.int64)
+        one = np.zeros(0, dtype=np.int64)
+        transition_entries(u, b, np.array([0, 0]), np.array([1, 1]), np.array([[0, 1, 2], [0, 1, 2]]), cls,
+                           cls, one, one, np.zeros((0, 3), dtype=np.int64), True)
+        reward_entries(cls, cls, one, one)
+    return time.perf_counter() - t0
