@@ -42,13 +42,18 @@ def load_problem(path: Path):
     return load(path.parent / "domain.pddl", path) if "ippc2006" in str(path) else load(path)
 
 
-def cell(path: Path, planner: str, opts: dict, episodes: int, steps: int) -> dict:
+def cell(path: Path, planner: str, opts: dict, episodes: int, steps: int, budget: float | None = None) -> dict:
+    """One cell; with ``budget`` (seconds), no episode starts once the cell has spent it, and the
+    row says how many episodes ran and that the cell timed out."""
     domain, problem = load_problem(path)
     env, task = ppddl_world(domain, problem)
     model = ppddl_model(domain, problem, task, need_rules=planner == "prada")
-    wins, lengths, dead, decisions = 0, [], 0, 0
+    wins, lengths, dead, decisions, ran = 0, [], 0, 0, 0
     t = time.perf_counter()
     for seed in range(episodes):
+        if budget is not None and time.perf_counter() - t > budget:
+            break
+        ran += 1
         ep = run_episode(env, make_planner(planner, model, opts, seed), steps, seed)
         decisions += len(ep.steps) + ep.dead_end
         dead += ep.dead_end
@@ -56,7 +61,7 @@ def cell(path: Path, planner: str, opts: dict, episodes: int, steps: int) -> dic
             wins += 1
             lengths.append(len(ep.steps))
     spent = time.perf_counter() - t
-    return {"successes": wins, "episodes": episodes, "mean_steps": sum(lengths) / len(lengths) if lengths else None,
+    return {"successes": wins, "episodes": ran, "timed_out": ran < episodes, "budget": budget, "mean_steps": sum(lengths) / len(lengths) if lengths else None,
             "dead_ends": dead, "seconds_per_decision": spent / max(decisions, 1), "seconds": spent}
 
 
@@ -77,7 +82,8 @@ def markdown(path: Path, data: Path) -> str:
                     continue
                 steps = f"{r['mean_steps']:.1f}" if r["mean_steps"] is not None else "-"
                 dead = f", {r['dead_ends']} dead" if r["dead_ends"] else ""
-                cells.append(f"{r['successes']}/{r['episodes']}, {steps} st{dead}, {r['seconds_per_decision']:.2g} s")
+                cut = f" (timed out: {r['budget']:.0f} s budget)" if r.get("timed_out") else ""
+                cells.append(f"{r['successes']}/{r['episodes']}{cut}, {steps} st{dead}, {r['seconds_per_decision']:.2g} s")
             out.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(out)
 
@@ -89,6 +95,8 @@ def main() -> int:
     ap.add_argument("--episodes", type=int, default=20)
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--only", nargs="*", help="problem folders, e.g. ippc2008/triangle-tireworld")
+    ap.add_argument("--cell-seconds", type=float, help="budget per cell: no episode starts after it (the row "
+                    "says how many ran)")
     ap.add_argument("--planners", nargs="*", help="column labels to run, e.g. random prada (default: all)")
     ap.add_argument("--markdown", action="store_true", help="print --out as a table (rows not run: not measured)")
     args = ap.parse_args()
@@ -101,7 +109,7 @@ def main() -> int:
                 if args.planners and label not in args.planners:
                     continue
                 row = {"problem": f"{folder}/{path.stem}", "planner": label, "steps": args.steps,
-                       **cell(path, planner, opts, args.episodes, args.steps)}
+                       **cell(path, planner, opts, args.episodes, args.steps, args.cell_seconds)}
                 print(json.dumps(row), flush=True)
                 with open(args.out, "a") as f:
                     f.write(json.dumps(row) + "\n")
