@@ -313,3 +313,37 @@ def test_rename_model_and_export(bw_model, tmp_path, capsys):
         assert main(["rename", str(model), *bad]) == 2
         assert capsys.readouterr().err.count("\n") == 1
     assert (model / "rules.json").read_text() == before
+
+
+def test_a_rule_that_is_all_noise_exports_pessimistically_as_a_dead_end(tmp_path):
+    """A rule with no outcomes and noise 1 under ``--noise pessimistic``: its action leads to
+    (noise-happened) with probability 1, as plado (an independent PPDDL implementation) computes
+    from the text, and it reads back as the same rule; a rule with noise 0.2 next to it keeps its
+    distribution (hand-computed below)."""
+    from groundsym.logic import Literal
+    from groundsym.rules.io import write_rules
+    from groundsym.rules.model import Outcome, Rule, RuleSet
+    from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace
+    from test_ppddl_simulate import Plado
+
+    held = parse_atom("(held ?x)")
+    rs = RuleSet((Rule(parse_atom("(grab ?x)"), (Literal(held, False),), (), (), 1.0),
+                  Rule(parse_atom("(drop ?x)"), (Literal(held, True),), (Outcome((Literal(held, False),)),), (0.8,), 0.2)),
+                 ())
+    model = tmp_path / "m"
+    model.mkdir()
+    write_rules(model / "rules.json", rs, predicates={"held": 1}, primitives={"grab": 1, "drop": 1})
+    write_symbolic_traces(model / "symbolic-traces.json", SymbolicDataset(
+        (SymbolicTrace(("o1",), (frozenset(), frozenset()), (parse_atom("(grab o1)"),), (0.0,)),),
+        {"held": 1}, {"grab": 1, "drop": 1}))
+    out = tmp_path / "o"
+    assert main(["export-domain", str(model), "-o", str(out), "--goal", "(held o1)", "--noise", "pessimistic"]) == 0
+    domain, _ = load(out / "domain.ppddl", out / "problem.ppddl")
+    back = action_to_rule(domain.action("grab_r1"))
+    assert (back.outcomes, back.noise) == ((), 1.0)
+    ref = Plado(out / "domain.ppddl", out / "problem.ppddl")
+    noise, h = parse_atom("(noise-happened)"), parse_atom("(held o1)")
+    assert ref.successors(frozenset(), parse_atom("(grab_r1 o1)")) == {(frozenset({noise}), 0.0): 1.0}
+    drop = ref.successors(frozenset({h}), parse_atom("(drop_r1 o1)"))
+    assert drop.keys() == {(frozenset(), 0.0), (frozenset({h, noise}), 0.0)}
+    assert drop[(frozenset(), 0.0)] == pytest.approx(0.8) and drop[(frozenset({h, noise}), 0.0)] == pytest.approx(0.2)

@@ -46,6 +46,26 @@ def test_random_in_the_tower_sim_without_a_model(tmp_path, capsys):
     assert ep["value"] == pytest.approx(ep["steps"][0]["reward"] + 0.8 * ep["steps"][1]["reward"])
 
 
+def test_random_episodes_each_draw_from_their_own_seed(tmp_path):
+    """Each episode's choices come from its own seed (derived from --seed and the episode's index):
+    from the same start, the first primitive of 40 episodes is spread over the 4 pickups as
+    uniform draws are (a binomial(40, 1/4) count lies in 4..18 with probability 0.99); the same
+    --seed gives the same episodes, and a run of 2 episodes is the first 2 of a run of 40."""
+    from collections import Counter
+
+    base = ["--domain", BW / "domain.ppddl", "--problem", BW / "p01.ppddl", "--planner", "random", "--steps", 3,
+            "--seed", 7, "--quiet"]
+    runs = {}
+    for name, n in (("forty", 40), ("again", 40), ("two", 2)):
+        assert plan(*base, "--episodes", n, "-o", tmp_path / f"{name}.json") == 0
+        runs[name] = json.loads((tmp_path / f"{name}.json").read_text())["episodes"]
+    eps = runs["forty"]
+    firsts = Counter(e["steps"][0]["action"] for e in eps)
+    assert set(firsts) == {f"(pickup {b})" for b in "abcd"} and all(4 <= c <= 18 for c in firsts.values()), firsts
+    assert len({e["seed"] for e in eps}) == 40 and len({tuple(s["action"] for s in e["steps"]) for e in eps}) > 20
+    assert runs["again"] == eps and runs["two"] == eps[:2]
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--sim", "tower", "--domain", "x"], "either --sim"),
     (["--domain", BW / "domain.ppddl", "--problem", BW / "p01.ppddl", "--planner", "nosuch"], "unknown planner"),
