@@ -6,7 +6,8 @@ shared machine count less), physics steps per primitive, the world's raw steppin
 world stepped with no controller) and the share of a primitive's time that is physics; a reset is
 timed apart. With ``--against DIR`` (a checkout of another commit, e.g. a ``git worktree``) the same
 measurement runs on that code too, alternating rounds so both see the same machine load, and the
-ratio is printed::
+ratio is printed, with whether both produced the same traces (bit for bit: a speed change must not
+change results)::
 
     git worktree add /tmp/cell-before <commit>
     python benchmarks/bench_sim.py --traces 6 --rounds 2 --against /tmp/cell-before
@@ -15,6 +16,7 @@ ratio is printed::
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import subprocess
@@ -34,6 +36,7 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
 
     steps = prims = 0
     busy = resets = 0.0
+    digest = hashlib.sha256()
     with TowerSim() as sim:
         for reset_seed, rng in trace_seeds(0, traces):
             t0 = time.process_time()
@@ -41,9 +44,10 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
             t1 = time.process_time()
             sim.world.steps = 0
             choices = sim.actions()
-            for _ in range(length):
-                sim.step(choices[int(rng.integers(len(choices)))])
+            scenes = [sim.step(choices[int(rng.integers(len(choices)))]) for _ in range(length)]
             busy += time.process_time() - t1
+            for scene in scenes:
+                digest.update(scene_bytes(scene))
             resets += t1 - t0
             steps += sim.world.steps
             prims += length
@@ -51,7 +55,14 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
         t = time.process_time()
         sim.world.step(600)
         raw = 600 / (time.process_time() - t)
-    return {"prims": prims, "cpu": busy, "steps": steps, "raw": raw, "reset": resets / traces}
+    return {"prims": prims, "cpu": busy, "steps": steps, "raw": raw, "reset": resets / traces,
+            "traces": digest.hexdigest()}
+
+
+def scene_bytes(scene) -> bytes:
+    """A scene as bytes, for comparing traces: features to the bit, reward, sorted true atoms."""
+    truth = ",".join(sorted(str(a) for a in scene.truth))
+    return scene.features.tobytes() + repr(scene.reward).encode() + truth.encode()
 
 
 def run_child(root: Path, traces: int, length: int) -> dict[str, float]:
@@ -97,6 +108,9 @@ def main() -> int:
     if args.against:
         mine, other = rates["this code"], rates[str(args.against)]
         print(f"ratio this code / {args.against}: {mine / other:.2f}")
+        same = [a["traces"] == b["traces"] for a, b in zip(runs["this code"], runs[str(args.against)])]
+        print(f"same traces (features to the bit, rewards, true atoms) in {sum(same)} of {len(same)} rounds: "
+              f"{'yes' if all(same) else 'NO'}")
     return 0
 
 

@@ -55,6 +55,8 @@ ORN_TOL = 1e-5                     # 1 - |<q, q_target>|: about 0.5 deg of hand 
 IK_ROUNDS = 25                     # restarts from the previous solution at most
 MAX_KNOT_STEP = 0.4                # rad: a joint turning more than this between knots is a jump, not a path
 HOME_POSE = (0.0, -0.55, 0.0, -2.3, 0.0, 1.75, 0.785)
+ARM_INDICES = list(range(7))
+ARM_AT_REST = [[0.0]] * 7
 
 
 class IKError(RuntimeError):
@@ -102,8 +104,9 @@ class ArmKinematics:
             self.client = -1
 
     def _set(self, q: np.ndarray) -> None:
-        for j in range(7):
-            pb.resetJointState(self.robot, j, float(q[j]), physicsClientId=self.client)
+        """Put the copy's arm at ``q`` (at rest), in one call (this runs for every IK round)."""
+        pb.resetJointStatesMultiDof(self.robot, ARM_INDICES, [[float(x)] for x in q[:7]], ARM_AT_REST,
+                                    physicsClientId=self.client)
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """TCP position and orientation (quaternion) at joint angles ``q``."""
@@ -118,11 +121,12 @@ class ArmKinematics:
         the iteration does not converge within the joint limits.
         """
         orn = np.array(down(yaw))
+        target, target_orn = [float(x) for x in pos], orn.tolist()
         q = np.asarray(seed, dtype=float)
         err = np.inf
-        for _ in range(IK_ROUNDS):
-            self._set(q)
-            q = np.array(pb.calculateInverseKinematics(self.robot, TCP_LINK, list(map(float, pos)), list(orn),
+        self._set(q)
+        for _ in range(IK_ROUNDS):                     # each round starts where fk left the copy: at q
+            q = np.array(pb.calculateInverseKinematics(self.robot, TCP_LINK, target, target_orn,
                                                        maxNumIterations=50, residualThreshold=1e-6,
                                                        physicsClientId=self.client)[:7])
             p, o = self.fk(q)

@@ -34,6 +34,7 @@ HAND_PARTS = (HAND_LINK, LEFT_FINGER, RIGHT_FINGER)
 ARM_FORCES = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 POSITION_GAIN = 0.2                # joint motors: position and velocity gains of the tracking law
 VELOCITY_GAIN = 1.0
+POSITION_GAINS, VELOCITY_GAINS = (POSITION_GAIN,) * 7, (VELOCITY_GAIN,) * 7
 FINGER_OPEN = 0.04                 # per finger (pads 7.2 cm apart when open)
 FINGER_FORCE = 40.0
 HOME_Q = np.array(HOME_POSE)
@@ -201,16 +202,17 @@ class TowerWorld:
         states = pb.getJointStates(self.robot, ARM_JOINTS, physicsClientId=self.client)
         return np.array([s[0] for s in states])
 
-    def _arm_speed(self) -> float:
+    def _arrived(self, target: np.ndarray) -> bool:
+        """Every arm joint within ``ARRIVE_TOL`` of ``target`` and slower than ``REST_SPEED``."""
         states = pb.getJointStates(self.robot, ARM_JOINTS, physicsClientId=self.client)
-        return max(abs(s[1]) for s in states)
+        return (max(abs(s[0] - t) for s, t in zip(states, target)) < ARRIVE_TOL
+                and max(abs(s[1]) for s in states) < REST_SPEED)
 
     def _command(self, q: np.ndarray, qd: np.ndarray) -> None:
         """Joint motor targets: position ``q`` with feed-forward velocity ``qd`` (tracking a path)."""
-        pb.setJointMotorControlArray(self.robot, ARM_JOINTS, pb.POSITION_CONTROL, targetPositions=list(q),
-                                     targetVelocities=list(qd), forces=ARM_FORCES,
-                                     positionGains=[POSITION_GAIN] * 7, velocityGains=[VELOCITY_GAIN] * 7,
-                                     physicsClientId=self.client)
+        pb.setJointMotorControlArray(self.robot, ARM_JOINTS, pb.POSITION_CONTROL, targetPositions=q.tolist(),
+                                     targetVelocities=qd.tolist(), forces=ARM_FORCES, positionGains=POSITION_GAINS,
+                                     velocityGains=VELOCITY_GAINS, physicsClientId=self.client)
 
     def _set_fingers(self, width: float | tuple[float, float]) -> None:
         widths = (width, width) if np.isscalar(width) else width
@@ -243,7 +245,7 @@ class TowerWorld:
                 return hit
         self._command(q[-1], np.zeros(7))
         for _ in range(ARRIVE_STEPS):
-            if np.abs(self.arm_q() - q[-1]).max() < ARRIVE_TOL and self._arm_speed() < REST_SPEED:
+            if self._arrived(q[-1]):
                 break
             self.step()
             hit = guard() if guard else None
