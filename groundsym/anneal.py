@@ -30,6 +30,7 @@ from .errors import UserError
 from .fileio import atomic_write_json, read_json
 from .loss import Loss, LossConfig, LossData, LossTerms, active_columns
 from .symbols import Symbol, binary_truth, unary_truth
+from .workers import start as start_workers
 
 CHECKPOINT_SCHEMA = "groundsym.anneal-checkpoint/1"
 
@@ -305,26 +306,6 @@ def _init_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> Non
     _WORKER["cfg"] = cfg
 
 
-def _init_pool_worker(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> None:
-    """A pool process ignores SIGINT: Ctrl-C reaches the whole process group, and only the main
-    process should act on it (stop the pool, keep the checkpoint); workers that died of it left
-    the pool waiting for them forever."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # blocked by _start_pool while forking
-    _init_worker(data, loss_cfg, cfg)
-
-
-def _start_pool(ctx: Any, workers: int, data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig) -> Any:
-    """The worker pool, with SIGINT held back while it forks: a Ctrl-C that lands in Python's fork
-    handlers is dropped (the run went on) and one in a half-started worker killed it; held back,
-    it reaches the main process once the pool stands, and the workers, already ignoring it, never."""
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        return ctx.Pool(workers, _init_pool_worker, (data, loss_cfg, cfg))
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
 def _work(job: tuple[str, Any]) -> RestartState:
     kind, arg = job
     loss, cfg = _WORKER["loss"], _WORKER["cfg"]
@@ -360,13 +341,15 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    pool = _start_pool(ctx, workers, data, loss_cfg, cfg) if workers > 1 else None
+    pool, mask = start_workers(ctx, workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else (None, None)
     if pool is None:
         _init_worker(data, loss_cfg, cfg)
     run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])
     if executor is not None:
         run = executor.mapper(_init_worker, (data, loss_cfg, cfg)) or run
     try:
+        if mask is not None:     # a Ctrl-C held back while the workers forked arrives here
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         if states is None:
             states = run(_work, [("start", (r, seed)) for r in range(cfg.restarts)])
         while True:
@@ -380,14 +363,12 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
                 states[new.index] = new
     except BaseException:        # Ctrl-C or an error: stop the workers now, the checkpoint stays
         if pool is not None:
-            pool.terminate()
-            pool.join()
+            pool.kill()
             pool = None
         raise
     finally:
         if pool is not None:
             pool.close()
-            pool.join()
     return _result(states, data)
 
 

@@ -27,20 +27,22 @@ def groundsym(args: list[str], **kw) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
 
 
-def interrupt_after(args: list[str], delay: float, after: Path | None = None) -> tuple[int, str]:
-    """Run, then Ctrl-C as a terminal sends it: SIGINT to the whole process group, ``delay``
-    seconds after the start (or after the file ``after`` appears)."""
+def interrupt_after(args: list[str], delay: float, after: Path | None = None, group: bool = True,
+                    limit: float = 60) -> tuple[int, str]:
+    """Run, then Ctrl-C as a terminal sends it: SIGINT to the whole process group (``group``;
+    else to the main process alone, as ``kill -INT PID`` does), ``delay`` seconds after the start
+    (or after the file ``after`` appears); the run must end within ``limit`` seconds of it."""
     p = groundsym(args)
     while after is not None and not after.exists() and p.poll() is None:
         time.sleep(0.05)
     time.sleep(delay)
     if p.poll() is None:
-        os.killpg(p.pid, signal.SIGINT)
+        os.killpg(p.pid, signal.SIGINT) if group else os.kill(p.pid, signal.SIGINT)
     try:
-        _, err = p.communicate(timeout=60)
+        _, err = p.communicate(timeout=limit)
     except subprocess.TimeoutExpired:     # the bug this guards against: a pool waiting forever
         os.killpg(p.pid, signal.SIGKILL)
-        pytest.fail(f"learn did not stop within 60 s of SIGINT ({args})")
+        pytest.fail(f"learn did not stop within {limit} s of SIGINT ({args})")
     return p.returncode, err
 
 
@@ -95,6 +97,21 @@ def test_ctrl_c_stops_learn_at_once_with_one_line(tmp_path):
     rc, err = interrupt_after([*LEARN, "-o", str(out), "--checkpoint", str(ck)], 0.2, after=ck)
     assert rc == 130 and time.monotonic() - t < 30, err
     check_interrupted(rc, err, out, ck)
+
+
+@pytest.mark.slow
+def test_sigint_to_the_main_process_alone_stops_learn_promptly(tmp_path):
+    """``kill -INT`` of the main process only (the workers never see it): at 12 moments from the
+    start to the end of the search, each run stops within 20 s, with one line and status 130,
+    and leaves a whole checkpoint (once the first round has written one)."""
+    rng = np.random.default_rng(16)
+    for k, delay in enumerate(rng.uniform(0.0, 12.0, 12)):
+        out, ck = tmp_path / f"M{k}", tmp_path / f"ck{k}.json"
+        rc, err = interrupt_after([*LEARN, "-o", str(out), "--checkpoint", str(ck)], float(delay), group=False,
+                                  limit=20)
+        check_interrupted(rc, err, out, ck)
+        if ck.exists():
+            assert json.loads(ck.read_text())["restarts"], err
 
 
 @pytest.mark.slow
