@@ -26,7 +26,7 @@ from conftest import DATA
 from groundsym.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
-FAST, SLOW = 25, int(os.environ.get("FUZZ_EXAMPLES", "1300"))
+FAST, SLOW = 15, int(os.environ.get("FUZZ_EXAMPLES", "1300"))
 TIME_LIMIT = 20          # seconds per input: far above any valid file here, so only a hang trips it
 OUTCOMES: dict[str, dict[str, int]] = {}
 
