@@ -82,6 +82,20 @@ def _fraction(text: str) -> Fraction | None:
         return None
 
 
+@lru_cache(maxsize=4096)
+def _in_unit_interval(text: str) -> bool:
+    """Whether a probability as written (a number, see _fraction) is in [0, 1]; cached by its text,
+    since Fraction comparisons are slow and a file repeats its few probabilities."""
+    value = _fraction(text)
+    return value is not None and 0 <= value <= 1
+
+
+@lru_cache(maxsize=4096)
+def _sum_of(texts: tuple[str, ...]) -> Fraction:
+    """The exact sum of the probabilities of one ``probabilistic`` (numbers, as written)."""
+    return sum((_fraction(t) or Fraction(0) for t in texts), Fraction(0))
+
+
 class _Walker:
     """Builds AST nodes from the parse tree; knows the file name, and how to find a node's line
     and column (which depends on who built the tree), for its error messages."""
@@ -150,13 +164,20 @@ class _Scope:
         return name
 
     def atom(self, tree: lark.Tree) -> Atom:
+        """(The hot path of a large file: plain strings as keys, the checks of term() inline.)"""
         children = tree.children
-        pred = self.predicates.get(children[0])
+        pred = self.predicates.get(str(children[0]))
         if pred is None:
             raise self.w.fail(children[0], f"unknown predicate {str(children[0])!r}")
         if len(children) - 1 != pred.arity:
             raise self.w.fail(tree, f"{pred.name} takes {pred.arity} argument(s), got {len(children) - 1}")
-        return Atom(pred.name, tuple([self.term(t) for t in children[1:]]))
+        args = []
+        for tok in children[1:]:
+            name = str(tok)
+            if name not in (self.variables if tok.type == "VARIABLE" else self.objects):
+                self.term(tok)                  # raises, naming what is wrong
+            args.append(name)
+        return Atom(pred.name, tuple(args))
 
     def formula(self, tree: lark.Tree) -> Formula:
         kind = tree.data
@@ -210,10 +231,10 @@ class _Scope:
         branches = []
         for tok, eff in zip(kids[0::2], kids[1::2]):
             p = self.w.number(tok)
-            if p < 0 or p > 1:
+            if not _in_unit_interval(str(tok)):
                 raise self.w.fail(tok, f"probability {tok} is outside [0, 1]")
             branches.append((p, self.effect(eff)))
-        total = sum((p for p, _ in branches), Fraction(0))
+        total = _sum_of(tuple(str(t) for t in kids[0::2]))
         if total > 1:
             raise self.w.fail(tree, f"probabilities sum to {float(total):g}, above 1")
         return Probabilistic(tuple(branches))
@@ -257,16 +278,19 @@ def _domain(w: _Walker, tree: lark.Tree) -> Domain:
 
 def _action(w: _Walker, tree: lark.Tree, scope: _Scope) -> Action:
     name = str(tree.children[0])
+    parts: dict[str, list[lark.Tree]] = {"parameters": [], "precondition": [], "effect_part": []}
+    for part in tree.children[1:]:           # one pass: a large file has one action after another
+        parts[str(part.data)].append(part.children[0])
     params: tuple[Typed, ...] = ()
-    for part in _sections(tree, ["parameters"]):
-        params = w.typed(part.children[0], scope.types)
+    for typed in parts["parameters"]:
+        params = w.typed(typed, scope.types)
     inner = scope.bind(params)
     pre: Formula = TRUE
     eff: Effect = NO_EFFECT
-    for part in _sections(tree, ["precondition"]):
-        pre = inner.formula(part.children[0])
-    for part in _sections(tree, ["effect_part"]):
-        eff = inner.effect(part.children[0])
+    for formula in parts["precondition"]:
+        pre = inner.formula(formula)
+    for effect in parts["effect_part"]:
+        eff = inner.effect(effect)
     return Action(name, params, pre, eff)
 
 
