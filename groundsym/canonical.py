@@ -196,7 +196,10 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
         raw = encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
         hit = cache.get(raw) if cache is not None else None
         if hit is None:
-            hit = _Search(unary[k], binary[k], lock[k], ecode[k], groups).run(col[k])
+            if kernels == "numba":
+                hit = compiled.individualise(unary[k], binary[k], lock[k], ecode[k], groups, col[k])
+            else:
+                hit = _Search(unary[k], binary[k], lock[k], ecode[k], groups).run(col[k])
             if cache is not None:
                 if len(cache) > 100_000:
                     cache.clear()

@@ -32,7 +32,7 @@ except ImportError:  # pragma: no cover - exercised only where numba cannot inst
 from .canonical import _M1, _M2, _P
 
 M1, M2 = np.uint64(_M1), np.uint64(_M2)
-P0, P1, P2, P3, P4 = (np.uint64(p) for p in _P[:5])
+P0, P1, P2, P3, P4, P5 = (np.uint64(p) for p in _P[:6])
 INF = np.inf
 
 
@@ -68,27 +68,35 @@ def colours(ucode, ecode):
             col[r, i] = _mix(np.uint64(ucode[r, i]) + P0)
     if m < 2:
         return col
-    new = np.empty(m, dtype=np.uint64)
     for r in range(n):
-        classes = _n_distinct(col[r])
-        for _ in range(m):
-            for i in range(m):
-                nb = np.uint64(0)
-                for j in range(m):
-                    if j == i:
-                        continue
-                    c = col[r, j]
-                    t = _mix(c * P3 + np.uint64(ecode[r, i, j]) * P1 + _mix(np.uint64(ecode[r, j, i]) * P2 + c))
-                    nb += t
-                new[i] = _mix(col[r, i] * P4 + nb)
-            now = _n_distinct(new)
-            if now <= classes:
-                break
-            col[r, :] = new
-            classes = now
-            if now >= m:
-                break
+        refine_row(col[r], ecode[r])
     return col
+
+
+@njit(cache=True)
+def refine_row(col, ecode):
+    """canonical.refine on one state, in place: rounds until one splits no class."""
+    m = len(col)
+    if m < 2:
+        return
+    new = np.empty(m, dtype=np.uint64)
+    classes = _n_distinct(col)
+    for _ in range(m):
+        for i in range(m):
+            nb = np.uint64(0)
+            for j in range(m):
+                if j == i:
+                    continue
+                c = col[j]
+                nb += _mix(c * P3 + np.uint64(ecode[i, j]) * P1 + _mix(np.uint64(ecode[j, i]) * P2 + c))
+            new[i] = _mix(col[i] * P4 + nb)
+        now = _n_distinct(new)
+        if now <= classes:
+            break
+        col[:] = new
+        classes = now
+        if now >= m:
+            break
 
 
 @njit(cache=True)
@@ -111,6 +119,220 @@ def colour_order(col, lock):
                 j -= 1
             p[j + 1] = x
     return perms
+
+
+@njit(cache=True)
+def _order_row(col, lock):
+    return colour_order(col.reshape(1, -1), lock.reshape(1, -1))[0]
+
+
+@njit(cache=True)
+def _encode_row(unary, binary, lock, perm):
+    """canonical.encode_rows of one state in the order ``perm``: locks, unary bits, binary bits."""
+    m, k = unary.shape
+    l = binary.shape[2]
+    out = np.empty(m + m * k + m * m * l, dtype=np.uint8)
+    t = 0
+    for p in range(m):
+        out[t] = np.uint8(lock[perm[p]])
+        t += 1
+    for p in range(m):
+        for a in range(k):
+            out[t] = unary[perm[p], a]
+            t += 1
+    for p in range(m):
+        for q in range(m):
+            for a in range(l):
+                out[t] = binary[perm[p], perm[q], a]
+                t += 1
+    return out
+
+
+@njit(cache=True)
+def _less(a, b):
+    """Lexicographic a < b for equal-length uint8 arrays (bytes order)."""
+    for i in range(len(a)):
+        if a[i] != b[i]:
+            return a[i] < b[i]
+    return False
+
+
+@njit(cache=True)
+def _target(col, perm, groups):
+    """canonical._Search._target: the first colour class in canonical order holding objects
+    that are not twins, as sorted objects (empty when there is none)."""
+    m = len(perm)
+    s = 0
+    while s < m:
+        e = s + 1
+        while e < m and col[perm[e]] == col[perm[s]]:
+            e += 1
+        if e - s > 1:
+            mixed = False
+            for x in range(s + 1, e):
+                if groups[perm[x]] != groups[perm[s]]:
+                    mixed = True
+                    break
+            if mixed:
+                return np.sort(perm[s:e].copy())
+        s = e
+    return np.empty(0, dtype=np.int64)
+
+
+@njit(cache=True)
+def _individual_colour(col, old):
+    new = _mix(old ^ P5)
+    while True:
+        clash = False
+        for c in col:
+            if c == new:
+                clash = True
+                break
+        if not clash:
+            return new
+        new = _mix(new + np.uint64(1))
+
+
+@njit(cache=True)
+def _orbit_roots(autos, n_autos, prefix, depth, m):
+    """canonical._Search._orbit_roots: orbits of the automorphisms found that fix the prefix."""
+    parent = np.arange(m)
+    for g in range(n_autos):
+        fixes = True
+        for d in range(depth):
+            if autos[g, prefix[d]] != prefix[d]:
+                fixes = False
+                break
+        if not fixes:
+            continue
+        for x in range(m):
+            a = x
+            while parent[a] != a:
+                a = parent[a]
+            b = autos[g, x]
+            while parent[b] != b:
+                b = parent[b]
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    roots = np.empty(m, dtype=np.int64)
+    for x in range(m):
+        a = x
+        while parent[a] != a:
+            a = parent[a]
+        roots[x] = a
+    return roots
+
+
+@njit(cache=True)
+def individualise(unary, binary, lock, ecode, groups, col0):
+    """canonical._Search compiled (the same tree, visiting order, pruning and smallest leaf):
+    individualisation-refinement for one state whose colour classes are not all twins.
+    Returns (canonical encoding, canonical order)."""
+    m = len(lock)
+    size = m + 1
+    cols = np.empty((size, m), dtype=np.uint64)
+    cells = np.empty((size, m), dtype=np.int64)
+    cell_len = np.zeros(size, dtype=np.int64)
+    idx = np.zeros(size, dtype=np.int64)
+    visited = np.empty((size, m), dtype=np.int64)
+    n_visited = np.zeros(size, dtype=np.int64)
+    fresh = np.empty(size, dtype=np.uint64)
+    prefix = np.empty(size, dtype=np.int64)
+    autos = np.empty((8, m), dtype=np.int64)
+    n_autos = 0
+    have_first = False
+    best_is_first = False
+    first = np.empty(0, dtype=np.uint8)
+    first_perm = np.empty(0, dtype=np.int64)
+    best = np.empty(0, dtype=np.uint8)
+    best_perm = np.empty(0, dtype=np.int64)
+    cols[0] = col0
+    depth = 0
+    entering = True
+    while depth >= 0:
+        if entering:
+            perm = _order_row(cols[depth], lock)
+            cell = _target(cols[depth], perm, groups)
+            if len(cell) == 0:                       # a leaf
+                code = _encode_row(unary, binary, lock, perm)
+                this_is_first = not have_first
+                if this_is_first:
+                    first, first_perm = code, perm
+                    have_first = True
+                elif _equal(code, first):
+                    autos, n_autos = _add_automorphism(autos, n_autos, perm, first_perm)
+                if len(best) == 0 or _less(code, best):
+                    best, best_perm = code, perm
+                    best_is_first = this_is_first
+                elif _equal(code, best) and not best_is_first:
+                    autos, n_autos = _add_automorphism(autos, n_autos, perm, best_perm)
+                depth -= 1
+                entering = False
+                continue
+            cell_len[depth] = len(cell)
+            cells[depth, :len(cell)] = cell
+            fresh[depth] = _individual_colour(cols[depth], cols[depth, cell[0]])
+            idx[depth] = 0
+            n_visited[depth] = 0
+            entering = False
+        # continue the loop over the target cell at this depth
+        descended = False
+        while idx[depth] < cell_len[depth]:
+            v = cells[depth, idx[depth]]
+            idx[depth] += 1
+            skip = False
+            for w in range(n_visited[depth]):
+                if groups[v] == groups[visited[depth, w]]:
+                    skip = True
+                    break
+            if not skip and n_autos > 0 and n_visited[depth] > 0:
+                roots = _orbit_roots(autos, n_autos, prefix, depth, m)
+                for w in range(n_visited[depth]):
+                    if roots[v] == roots[visited[depth, w]]:
+                        skip = True
+                        break
+            if skip:
+                continue
+            visited[depth, n_visited[depth]] = v
+            n_visited[depth] += 1
+            prefix[depth] = v
+            cols[depth + 1] = cols[depth]
+            cols[depth + 1, v] = fresh[depth]
+            refine_row(cols[depth + 1], ecode)
+            depth += 1
+            entering = True
+            descended = True
+            break
+        if not descended:
+            depth -= 1
+    return best, best_perm
+
+
+@njit(cache=True)
+def _equal(a, b):
+    for i in range(len(a)):
+        if a[i] != b[i]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _add_automorphism(autos, n_autos, perm, other):
+    """Two leaves with equal encodings: object perm[c] -> other[c] preserves the state; kept
+    unless it is the identity."""
+    m = len(perm)
+    gamma = np.empty(m, dtype=np.int64)
+    for c in range(m):
+        gamma[perm[c]] = other[c]
+    for x in range(m):
+        if gamma[x] != x:
+            if n_autos == len(autos):
+                grown = np.empty((2 * len(autos), m), dtype=np.int64)
+                grown[:n_autos] = autos[:n_autos]
+                autos = grown
+            autos[n_autos] = gamma
+            return autos, n_autos + 1
+    return autos, n_autos
 
 
 @njit(cache=True)
@@ -245,27 +467,65 @@ def _kept_orders(groups, lock):
 
 
 @njit(cache=True)
+def _orders_of(groups, lock, cache):
+    """:func:`_kept_orders` as int8, memoised in ``cache`` by the structure (groups, locks)."""
+    m = len(groups)
+    key = np.int64(0)
+    cacheable = True
+    for i in range(m):
+        if lock[i] >= 16:
+            cacheable = False
+        key |= np.int64(groups[i]) << np.int64(3 * i)
+        key |= np.int64(lock[i] & 15) << np.int64(21 + 4 * i)
+    if cacheable and key in cache:
+        return cache[key]
+    orders = _kept_orders(groups, lock).astype(np.int8)
+    if cacheable:
+        cache[key] = orders
+    return orders
+
+
+@njit(cache=True)
 def _permuted_words(unary, binary, orders, w):
-    """(P, W) the query's bits under each order (position p takes object orders[r, p])."""
+    """(P, W) the query's bits under each order (position p takes object orders[r, p]).
+
+    Only the set bits are placed (states are sparse): per order, each lands where the order
+    sends its objects."""
     m, k = unary.shape
     l = binary.shape[2]
+    n_set = 0
+    for i in range(m):
+        for a in range(k):
+            n_set += unary[i, a] != 0
+        for i2 in range(m):
+            for a in range(l):
+                n_set += binary[i, i2, a] != 0
+    src_i = np.empty(n_set, dtype=np.int64)      # object, second object (-1: unary), column
+    src_j = np.empty(n_set, dtype=np.int64)
+    col = np.empty(n_set, dtype=np.int64)
+    t = 0
+    for i in range(m):
+        for a in range(k):
+            if unary[i, a]:
+                src_i[t], src_j[t], col[t] = i, -1, a
+                t += 1
+        for i2 in range(m):
+            for a in range(l):
+                if binary[i, i2, a]:
+                    src_i[t], src_j[t], col[t] = i, i2, a
+                    t += 1
     p = orders.shape[0]
     out = np.zeros((p, w), dtype=np.uint64)
     pos = np.empty(m, dtype=np.int64)
     for r in range(p):
         for q in range(m):
             pos[orders[r, q]] = q
-        for i in range(m):
-            pi = pos[i]
-            for a in range(k):
-                if unary[i, a]:
-                    j = pi * k + a
-                    out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
-            for i2 in range(m):
-                for a in range(l):
-                    if binary[i, i2, a]:
-                        j = m * k + (pi * m + pos[i2]) * l + a
-                        out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
+        for t in range(n_set):
+            if src_j[t] < 0:
+                j = pos[src_i[t]] * k + col[t]
+            else:
+                j = m * k + (pos[src_i[t]] * m + pos[src_j[t]]) * l + col[t]
+            out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
     return out
 
 
@@ -283,7 +543,7 @@ def _pack(dist, orders, f, m):
 
 
 @njit(cache=True)
-def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, order_cache):
     """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
@@ -336,7 +596,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         order = np.argsort(bound, kind="mergesort")
         if bound[order[0]] == INF:
             continue
-        orders = np.empty((0, m), dtype=np.int64)
+        orders = np.empty((0, m), dtype=np.int8)
         qw = np.empty((0, w), dtype=np.uint64)
         have_orders = False
         dist = np.full(c_n, INF)
@@ -352,7 +612,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 v = memo[key]
             else:
                 if not have_orders:
-                    orders = _kept_orders(twin_groups_row(ucode[q], ecode[q]), lock[q])
+                    orders = _orders_of(twin_groups_row(ucode[q], ecode[q]), lock[q], order_cache)
                     qw = _permuted_words(unary[q], binary[q], orders, w)
                     have_orders = True
                 dmin = INF
@@ -395,6 +655,11 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
 def new_memo():
     """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
     return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+
+
+def new_order_cache():
+    """An empty cache of enumerated orders for :func:`nearest_classes` (int64 -> int8[:, :])."""
+    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int8[:, :])
 
 
 # ----------------------------------------------------------------------------- mixture entries
@@ -614,10 +879,15 @@ def warm_up() -> float:
         needing_search(ucode, ecode, col, perms)
         prof = np.zeros((2, 7), dtype=np.int64)
         nearest_classes(u, b, lock, np.zeros(2, dtype=np.int64), prof, 1, np.array([0, 1]), ucode, ecode,
-                        np.arange(2, dtype=np.int64), new_memo())
+                        np.arange(2, dtype=np.int64), new_memo(), new_order_cache())
         cls = np.array([0, 1], dtype=np.int64)
         one = np.zeros(0, dtype=np.int64)
         transition_entries(u, b, np.array([0, 0]), np.array([1, 1]), np.array([[0, 1, 2], [0, 1, 2]]), cls,
                            cls, one, one, np.zeros((0, 3), dtype=np.int64), True)
         reward_entries(cls, cls, one, one)
+        from .canonical import canonical_forms    # a directed 4-cycle needs individualisation
+        cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)
+        for i in range(4):
+            cyc[0, i, (i + 1) % 4, 0] = 1
+        canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64), kernels="numba")
     return time.perf_counter() - t0

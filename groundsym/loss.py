@@ -202,6 +202,7 @@ class Loss:
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
         self._class_ids: dict[bytes, int] = {}
         self._pair_memo = compiled.new_memo() if kernels == "numba" else None
+        self._order_cache = compiled.new_order_cache() if kernels == "numba" else None
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -293,7 +294,7 @@ class Loss:
         ids = np.array([intern.setdefault(keys[f].tobytes(), len(intern)) for f in first.tolist()], dtype=np.int64)
         best, hq, hc, hs = compiled.nearest_classes(ru, rb, rl, label[first].astype(np.int64), _profiles(u, b, first),
                                                     ru.shape[2], lone, object_codes(ru, rl), codes(rb), ids,
-                                                    self._pair_memo)
+                                                    self._pair_memo, self._order_cache)
         return Neighbourhood(cls, perms, lone, best, hq, hc, hs)
 
     def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
