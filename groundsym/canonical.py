@@ -208,9 +208,10 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
     return out, perms
 
 
-def canonical_form(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def canonical_form(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
+                   kernels: str = "numpy") -> tuple[np.ndarray, np.ndarray]:
     """:func:`canonical_forms` of one state: ``unary`` (M, K), ``binary`` (M, M, L), ``lock`` (M,)."""
-    codes_, perms = canonical_forms(unary[None], binary[None], lock[None])
+    codes_, perms = canonical_forms(unary[None], binary[None], lock[None], kernels=kernels)
     return codes_[0], perms[0]
 
 
