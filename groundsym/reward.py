@@ -28,7 +28,7 @@ from .logic import Atom, is_variable, parse_atom
 
 SCHEMA = "groundsym.reward/1"
 LAMBDAS = tuple(float(x) for x in np.logspace(-4, 3, 15))
-VARS = ("?a", "?b", "?c", "?d")
+VARS = ("?a", "?b", "?c", "?d", "?e", "?f", "?g", "?h")
 
 
 @dataclass(frozen=True, order=True)
@@ -68,7 +68,7 @@ def _groundings(k: int, m: int) -> np.ndarray:
 
 def candidate_features(predicates: Mapping[str, int], max_size: int = 2, chain: int = 3) -> list[Feature]:
     """Counts of single atoms, of pairs of atoms sharing a variable, and of ``on``-like chains."""
-    a, b, c, d = VARS
+    a, b, c, d = VARS[:4]
     nul = [p for p, k in sorted(predicates.items()) if k == 0]
     un = [p for p, k in sorted(predicates.items()) if k == 1]
     bi = [p for p, k in sorted(predicates.items()) if k == 2]
@@ -85,8 +85,8 @@ def candidate_features(predicates: Mapping[str, int], max_size: int = 2, chain: 
             feats.append(Feature((Atom(p, (a, b)), Atom(q, (b, a)))))
         for p in bi:
             feats += [Feature((Atom(p, (a, b)), Atom(q, (b, c)))) for q in bi]
-    if chain >= 3:
-        feats += [Feature((Atom(p, (a, b)), Atom(p, (b, c)), Atom(p, (c, d)))) for p in bi]
+    for n in range(3, min(chain, len(VARS) - 1) + 1):     # chains of n atoms over n + 1 objects
+        feats += [Feature(tuple(Atom(p, (VARS[i], VARS[i + 1])) for i in range(n))) for p in bi]
     return feats
 
 
@@ -215,11 +215,12 @@ def _fit_stats(pred: np.ndarray, y: np.ndarray, base: float) -> dict[str, float]
     return {"n": int(len(y)), "rmse": rmse, "baseline_rmse": brmse, "r2": r2}
 
 
-def fit_reward(ds, *, seed: int = 0, holdout: float = 0.2, max_size: int = 2) -> RewardModel:
-    """Fit the reward model of a symbolic dataset; report held-out fit on ``holdout`` of the traces."""
+def fit_reward(ds, *, seed: int = 0, holdout: float = 0.2, max_size: int = 2, chain: int = 3) -> RewardModel:
+    """Fit the reward model of a symbolic dataset; report held-out fit on ``holdout`` of the traces.
+    ``chain``: the longest chain feature ``(p ?a ?b) (p ?b ?c) ...`` over each binary predicate."""
     rng = np.random.default_rng(seed)
     preds = dict(sorted(ds.predicates.items()))
-    feats = candidate_features(preds, max_size)
+    feats = candidate_features(preds, max_size, chain)
     X, y, groups = dataset_matrix(ds, feats)
     if len(y) == 0:
         return RewardModel((), (), 0.0, tuple(preds.items()), {"note": "no rewarded states"})

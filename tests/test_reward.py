@@ -38,6 +38,19 @@ def test_counts_are_numbers_of_injective_groundings():
     assert model_with({"#(?a ?b ?c ?d): (b1 ?a ?b) (b1 ?b ?c) (b1 ?c ?d)": 1.0}).predict(s, objs) == 1
 
 
+def test_longer_chains_count_paths_of_that_many_atoms():
+    """A tower of 6 (o1 on o2 on ... on o6) has 6 - n chains of n ``on`` atoms; ``chain`` sets the longest."""
+    objs = tuple(f"o{i}" for i in range(1, 8))
+    s = frozenset(Atom("on", (objs[i], objs[i + 1])) for i in range(5))
+    feats = {len(f.atoms): f for f in candidate_features({"on": 2}, chain=5) if len({a.args for a in f.atoms}) ==
+             len(f.atoms) and all(x.args[1] == y.args[0] for x, y in zip(f.atoms, f.atoms[1:]))}
+    assert sorted(feats) == [1, 2, 3, 4, 5]
+    for n, f in feats.items():
+        model = RewardModel((f,), (1.0,), 0.0, (("on", 2),))
+        assert model.predict(s, objs) == 6 - n
+    assert max(len(f.atoms) for f in candidate_features({"on": 2})) == 3       # the default: chains of 3
+
+
 def test_expected_reward_is_exact_under_independent_marginals():
     """Against brute force: enumerate every joint state of all ground atoms of 3 objects."""
     rng = np.random.default_rng(0)
