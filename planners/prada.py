@@ -187,14 +187,15 @@ def _changeable(rules: Any, atoms: Sequence[Atom]) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- inference
 
-def rule_probabilities(g: Grounding, B: np.ndarray) -> np.ndarray:
-    """P(U = r) for every sample (row of ``B``) and ground rule: context holds, no rival does."""
+def rule_probabilities(g: Grounding, B: np.ndarray, min_prob: float = RULE_MIN_PROB) -> np.ndarray:
+    """P(U = r) for every sample (row of ``B``) and ground rule: context holds, no rival does.
+    A context probability below ``min_prob`` counts as 0 (libPRADA's pruning)."""
     if not len(g.rule_group):
         return np.zeros((B.shape[0], 0))
     lit = B[:, g.ctx]
     lit = np.where(g.sign, lit, 1.0 - lit)
     phi = lit.prod(axis=2)
-    phi[phi < RULE_MIN_PROB] = 0.0
+    phi[phi < min_prob] = 0.0
     z = 1.0 - phi
     zero = z <= 1e-12
     logz = np.log(np.where(zero, 1.0, z))
@@ -251,15 +252,23 @@ class LinearReward(RewardFn):
 
 @dataclass(frozen=True, eq=False)
 class GoalReward(RewardFn):
-    """``R_goal * prod P(literal)``: a conjunctive goal under independent marginals (B.7)."""
+    """``R_goal * prod P(literal)``: a conjunctive goal under independent marginals (B.7).
+
+    ``share > 0`` adds ``share * R_goal * mean P(literal)``, the expected share of the goal's
+    literals that hold: a goal further away than the horizon then still orders the sequences (one
+    more goal literal is worth more), where the product is 0 for all of them and the choice is
+    blind (blocksworld p02, reversing a tower of five, needs at least 8 primitives)."""
 
     index: np.ndarray      # (L,) variable index of each goal literal (V = outside the grounding)
     positive: np.ndarray   # (L,)
     value: float
+    share: float = 0.0
 
     def __call__(self, B: np.ndarray) -> np.ndarray:
         lit = B[:, self.index]
-        return self.value * np.where(self.positive, lit, 1.0 - lit).prod(axis=1)
+        p = np.where(self.positive, lit, 1.0 - lit)
+        out = self.value * p.prod(axis=1)
+        return out + self.share * self.value * p.mean(axis=1) if self.share else out
 
 
 @dataclass(frozen=True, eq=False)
@@ -324,7 +333,7 @@ class SampledReward(RewardFn):
         return out
 
 
-def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
+def goal_reward(goal: Goal, g: Grounding, share: float = 0.0) -> GoalReward:
     idx, pos = [], []
     for lit in goal.literals:
         i = g.index.get(lit.atom)
@@ -334,7 +343,7 @@ def goal_reward(goal: Goal, g: Grounding) -> GoalReward:
         else:
             pos.append(lit.positive)
         idx.append(i)
-    return GoalReward(np.array(idx, dtype=np.int64), np.array(pos, dtype=bool), goal.reward)
+    return GoalReward(np.array(idx, dtype=np.int64), np.array(pos, dtype=bool), goal.reward, share)
 
 
 def model_reward(model: Any, g: Grounding, rng: np.random.Generator) -> RewardFn:
@@ -381,9 +390,11 @@ class PradaCore:
     """PRADA over one grounding and reward: sample, propagate, evaluate, shorten."""
 
     def __init__(self, g: Grounding, reward: RewardFn, horizon: int, samples: int, gamma: float,
-                 choice: str = "max", restricted: bool = False):
+                 choice: str = "max", restricted: bool = False, min_prob: float = RULE_MIN_PROB,
+                 threshold: float = 0.0, max_runs: int = 1):
         self.g, self.reward = g, reward
         self.horizon, self.samples, self.gamma, self.choice = horizon, samples, gamma, choice
+        self.min_prob, self.threshold, self.max_runs = min_prob, threshold, max_runs
         self.discounts = gamma ** np.arange(horizon + 1)
         self.restricted = restricted
         self._static = np.asarray(g.touched.getnnz(axis=0) == 0) if not restricted else None
@@ -405,7 +416,8 @@ class PradaCore:
         key = b0[:-1][static[:-1]].tobytes()
         if key not in self._subs:
             self._subs[key] = PradaCore(_subgrounding(self.g, ~dead), self.reward, self.horizon, self.samples,
-                                        self.gamma, self.choice, restricted=True)
+                                        self.gamma, self.choice, True, self.min_prob, self.threshold,
+                                        self.max_runs)
         return self._subs[key]
 
     def sample(self, b0: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -415,7 +427,7 @@ class PradaCore:
         seqs = np.full((N, T), -1, dtype=np.int64)
         value = self.reward(B) * self.discounts[0]
         for t in range(T):
-            U = rule_probabilities(g, B)
+            U = rule_probabilities(g, B, self.min_prob)
             W = action_weights(g, U)
             chosen = _sample_rows(W, rng)
             seqs[:, t] = chosen
@@ -429,7 +441,7 @@ class PradaCore:
         value = self.reward(B) * self.discounts[0]
         for t in range(self.horizon):
             col = seqs[:, t] if t < seqs.shape[1] else np.full(len(seqs), -1)
-            U = rule_probabilities(self.g, B)
+            U = rule_probabilities(self.g, B, self.min_prob)
             B = transition(self.g, B, U, col)
             value = value + self.discounts[t + 1] * self.reward(B)
         return value
@@ -472,9 +484,12 @@ class PradaCore:
         core = self.restrict(b0)
         if core is not self:
             return core.plan(b0, rng, shorten)
-        seqs, values = self.sample(b0, rng)
         noop = float(self.evaluate(b0, np.full((1, self.horizon), -1))[0])
-        row = self.best(seqs, values, rng)
+        for _ in range(self.max_runs):      # libPRADA: sample again while no sequence beats doing
+            seqs, values = self.sample(b0, rng)     # nothing by the threshold ("no sensible action")
+            row = self.best(seqs, values, rng)
+            if float(values[row]) > noop + self.threshold:
+                break
         seq, value = seqs[row], float(values[row])
         if shorten:
             seq, value = self.shorten(b0, seq, value)
@@ -522,6 +537,13 @@ def _variant(text: str) -> str:
     return text
 
 
+def nonnegative(text: str) -> float:
+    value = float(text)
+    if not np.isfinite(value) or value < 0:
+        raise ValueError("expected a number >= 0")
+    return value
+
+
 def _choice(text: str) -> str:
     if text not in ("max", "top10"):
         raise ValueError("expected max or top10")
@@ -543,6 +565,14 @@ class PradaPlanner:
         PlannerOption("variant", _variant, "prada", "prada, or a-prada (shorten the best sequence)"),
         PlannerOption("choice", _choice, "max", "max: first action of the best sequence; top10: the "
                       "first action whose 10 best sequences score highest on average"),
+        PlannerOption("rule_min_prob", unit_interval, RULE_MIN_PROB, "a rule whose context holds with a "
+                      "smaller probability is taken not to apply (libPRADA: 0.03)"),
+        PlannerOption("threshold", nonnegative, 0.0, "libPRADA's 'no sensible action' test: while the best "
+                      "sequence does not beat doing nothing by this much, sample again (max_runs times)"),
+        PlannerOption("max_runs", positive(int, most=100), 1, "sampling rounds per decision while the "
+                      "threshold is not met (then the best sequence found is run anyway)"),
+        PlannerOption("goal_share", nonnegative, 0.0, "a PPDDL goal scores the probability that all its "
+                      "literals hold plus this weight times the expected share of them that hold"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
@@ -566,12 +596,13 @@ class PradaPlanner:
         if objects not in self._cores:
             g = ground_rules(self.model.rules, objects, self._predicates(state), self.opts["noise_softener"])
             if self.model.goal is not None:
-                reward: RewardFn = goal_reward(self.model.goal, g)
+                reward: RewardFn = goal_reward(self.model.goal, g, self.opts["goal_share"])
             else:
                 reward = model_reward(self.model.reward, g, np.random.default_rng(0))
             gamma = self.opts["gamma"] if self.opts["gamma"] is not None else self.model.gamma
-            self._cores[objects] = PradaCore(g, reward, self.opts["horizon"], self.opts["samples"],
-                                             gamma, self.opts["choice"])
+            o = self.opts
+            self._cores[objects] = PradaCore(g, reward, o["horizon"], o["samples"], gamma, o["choice"],
+                                             False, o["rule_min_prob"], o["threshold"], o["max_runs"])
         return self._cores[objects]
 
     def choose(self, observation: Observation) -> Decision:

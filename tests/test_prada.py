@@ -234,3 +234,51 @@ def test_a_state_only_reward_is_estimated_by_sampling_the_belief():
     est = fn(np.vstack([b, point, g.belief(frozenset())]))
     assert est[1] == 1.0 and est[2] == 0.0
     assert abs(est[0] - 0.25) < 3 * np.sqrt(0.25 * 0.75 / 32)      # 32 draws, within 3 sigma
+
+
+def test_rule_min_prob_prunes_contexts_below_it():
+    """The hand case above with the pruning at 0.55: the referent c (0.5) no longer applies, so the
+    rule with b applies alone (0.6, nobody to exclude it)."""
+    g = ground_rules(RuleSet((PICK,)), ("a", "b", "c"), {"on": 2, "inhand": 1}, noise_softener=0.0)
+    b = g.belief(frozenset())
+    b[g.index[A("(on a b)")]], b[g.index[A("(on a c)")]] = 0.6, 0.5
+    U = rule_probabilities(g, b[None], min_prob=0.55)
+    u = {tuple(sorted(bind.items())): U[0, k] for k, (_, bind) in enumerate(g.source) if U[0, k] > 0}
+    assert u == pytest.approx({(("?x", "a"), ("?y", "b")): 0.6})
+    planner = PradaPlanner(PlanningModel(PRIMS, rules=blocks_world(), goal=TOWER3), {"rule_min_prob": "0.55"}, 0)
+    assert planner.core(("a", "b", "c"), frozenset()).min_prob == 0.55
+
+
+def test_goal_share_scores_the_expected_share_of_goal_literals():
+    """P = (1, 0.5, 0.2) for three positive literals: the product 0.1, the mean 0.5667."""
+    r = GoalReward(np.array([0, 1, 2]), np.ones(3, dtype=bool), 2.0, share=0.1)
+    B = np.array([[1.0, 0.5, 0.2, 1.0]])
+    assert r(B)[0] == pytest.approx(2.0 * 0.1 + 0.1 * 2.0 * (1.7 / 3))
+    assert GoalReward(np.array([0, 1, 2]), np.ones(3, dtype=bool), 2.0)(B)[0] == pytest.approx(0.2)
+
+
+def test_goal_share_approaches_a_goal_beyond_the_horizon():
+    """Horizon 2 cannot reach the three-block tower (4 steps): by the product every sequence is worth
+    0; scored by the share, PRADA puts one block where the goal wants it."""
+    rules, env = goal_env(("a", "b", "c"), TOWER3, p=1.0)
+    model = PlanningModel(PRIMS, rules=rules, goal=TOWER3)
+    blind = PradaPlanner(model, {"horizon": "2"}, seed=0).choose(env.reset(0))
+    assert blind.expected_value == 0.0
+    d = PradaPlanner(model, {"horizon": "2", "goal_share": "0.01"}, seed=0).choose(env.reset(0))
+    assert d.info["plan"] in (["(pickup a)", "(puton b)"], ["(pickup b)", "(puton c)"])
+    assert d.expected_value == pytest.approx(0.95 ** 2 * 0.01 * 0.5)   # half the goal from t = 2 on, gamma 0.95
+
+
+def test_threshold_samples_again_until_a_sequence_beats_doing_nothing():
+    """Nothing beats doing nothing by 10 (the goal is worth 1): all ``max_runs`` rounds are sampled;
+    with the threshold at 0 one round is enough."""
+    rules, env = goal_env(("a", "b", "c"), TOWER3, p=1.0)
+    model = PlanningModel(PRIMS, rules=rules, goal=TOWER3)
+    for opts, rounds in (({"threshold": "10", "max_runs": "3"}, 3), ({"max_runs": "3"}, 1)):
+        planner = PradaPlanner(model, opts, seed=0)
+        core = planner.core(("a", "b", "c"), on_table(("a", "b", "c")))
+        calls = []
+        sample = core.sample
+        core.sample = lambda b0, rng: calls.append(1) or sample(b0, rng)
+        planner.choose(env.reset(0))
+        assert len(calls) == rounds
