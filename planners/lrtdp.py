@@ -193,9 +193,11 @@ class LrtdpPlanner:
         return self.search.solved[self.search.intern([s])[0]]
 
     # ------------------------------------------------------------------ LRTDP
-    def trial(self, i: int) -> None:
+    def trial(self, i: int, deadline: float = float("inf")) -> None:
+        """One trial from state ``i``; its walk stops at ``deadline`` (a ``perf_counter`` time), so
+        a decision keeps its budget even where trials are long (h_max on blocks worlds)."""
         S, visited = self.search, []
-        while not S.solved[i] and len(visited) < self.opts["depth"]:
+        while not S.solved[i] and len(visited) < self.opts["depth"] and time.perf_counter() < deadline:
             visited.append(i)
             k, q = S.greedy(i)
             S.value[i] = q
@@ -244,7 +246,7 @@ class LrtdpPlanner:
         start, trials = time.perf_counter(), 0
         while (not S.solved[i] and trials < self.opts["trials"]
                and time.perf_counter() - start < self.opts["seconds"]):
-            self.trial(i)
+            self.trial(i, start + self.opts["seconds"])
             trials += 1
         k, q = S.greedy(i) if not S.dead_end[i] else (-1, S.dead)
         info = {"trials": trials, "solved": S.solved[i], "expected_cost": q,
