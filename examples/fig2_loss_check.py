@@ -39,7 +39,7 @@ from groundsym.fileio import atomic_write_json, atomic_write_text, read_json  # 
 from groundsym.grounding import fit_relation_symbol  # noqa: E402
 from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
 from groundsym.registry import make_sim  # noqa: E402
-from groundsym.symbols import Symbol  # noqa: E402
+from groundsym.symbols import Symbol, dataset_pair_names  # noqa: E402
 
 
 def never(name: str, arity: int, n_features: int) -> Symbol:
@@ -51,9 +51,9 @@ def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binar
                     without: str | None = None) -> dict[str, float]:
     """Loss of the intended symbol set (best binary relation and order), of no symbol and, with
     ``without``, of the intended set with that unary relation switched off."""
-    n = len(ds.feature_names)
+    n, n2 = len(ds.feature_names), len(dataset_pair_names(ds))     # pair features may be fewer (point clouds)
     us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
-    empty_b = [never(f"b{i + 1}", 2, n) for i in range(n_binary)]
+    empty_b = [never(f"b{i + 1}", 2, n2) for i in range(n_binary)]
     fewer = [never(s.name, 1, n) if r == without else s for r, s in zip(unary, us)]
     fitted = [fit_relation_symbol("b1", rel, ds, swapped=swapped)
               for rel, swapped in itertools.product(binary, (False, True))]
