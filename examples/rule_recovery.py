@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import fields, replace
 from itertools import permutations
 from pathlib import Path
 
@@ -153,6 +154,20 @@ def canonical_context(rule: Rule) -> tuple[str, tuple[str, ...]]:
     return str(rule.action.substitute(acts)), best or ()
 
 
+def parse_config(text: str) -> tuple[str, LearnOptions]:
+    """``NAME:KEY=VALUE,...`` -> (NAME, LearnOptions with those fields)."""
+    name, _, rest = text.partition(":")
+    types = {f.name: f.type for f in fields(LearnOptions)}
+    opts = LearnOptions()
+    for item in filter(None, rest.split(",")):
+        key, _, value = item.partition("=")
+        if key not in types:
+            raise SystemExit(f"--config {text}: {key} is not a LearnOptions field ({', '.join(types)})")
+        cast = {"bool": lambda v: v.lower() in ("1", "true", "yes"), "int": int, "str": str}.get(str(types[key]), float)
+        opts = replace(opts, **{key: cast(value)})
+    return name, opts
+
+
 def recover(source, n_train: int, seed: int, n_test: int = 2000, options: LearnOptions = LearnOptions()) -> dict:
     """Learn from ``n_train`` sampled transitions; held-out comparison with the true domain."""
     train = source.sample(n_train, np.random.default_rng(seed))
@@ -193,7 +208,9 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[200, 1000])
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--test", type=int, default=2000)
+    ap.add_argument("--options", default="", help="learner options KEY=VALUE,... (LearnOptions fields)")
     args = ap.parse_args()
+    _, options = parse_config(f"cli:{args.options}")
     args.out.mkdir(parents=True, exist_ok=True)
     results, md = [], ["# Rule recovery on known domains", "",
                        "gap = held-out log-likelihood per transition of the true domain minus that of the "
@@ -204,7 +221,7 @@ def main() -> None:
     for name, source in sources().items():
         for n in args.sizes:
             for seed in range(args.seeds):
-                r = recover(source, n, seed, args.test)
+                r = recover(source, n, seed, args.test, options)
                 print(f"{name} n={n} seed={seed}: true {r['true_ll']:.4f} learned {r['learned_ll']:.4f} "
                       f"gap {r['gap']:.4f} same contexts {r['same_contexts']} ({r['seconds']:.2f} s)", flush=True)
                 md.append(f"| {name} | {n} | {seed} | {r['true_ll']:.4f} | {r['learned_ll']:.4f} | "

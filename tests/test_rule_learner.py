@@ -125,3 +125,59 @@ def test_final_probabilities_add_a_no_change_pseudo_count():
             if o != empty:
                 assert p1[o] == pytest.approx(p * cnt / (cnt + 0.5))
         assert sum(r1.probs) + r1.noise == pytest.approx(1.0)
+
+
+def _put_examples():
+    """``put(X)`` adds ``placed(X)`` exactly when ``held(X)`` and ``dry(X)``; ``up(X)`` ("off the
+    table") holds whenever ``held(X)`` does. In training, among the tries with ``dry(X)``, ``held``
+    and ``up`` go together, so either one completes the context; but ``up`` also holds in failed
+    tries of a wet block. The held-out try (dry, up, not held: the block stands on another one)
+    fails, which only the context with ``held`` predicts."""
+    from groundsym.logic import Atom
+    from groundsym.rules.coverage import Example
+
+    def ex(*preds, works):
+        s = frozenset(Atom(p, ("o1",)) for p in preds)
+        return Example(s, Atom("put", ("o1",)), s | {Atom("placed", ("o1",))} if works else s, ("o1",))
+    train = [ex("held", "up", "dry", works=True) for _ in range(6)]
+    train += [ex("dry", works=False) for _ in range(4)]            # on the table
+    train += [ex("held", "up", works=False) for _ in range(4)]     # wet
+    train += [ex("up", works=False) for _ in range(4)]             # wet, on another block
+    return train, ex("up", "dry", works=False)
+
+
+def test_trimming_keeps_the_most_specific_of_interchangeable_literals():
+    train, unseen = _put_examples()
+    preds = {"held": 1, "up": 1, "dry": 1, "placed": 1}
+    general, _ = learn_rules(train, preds, LearnOptions(nochange_prior=0, complete=False), progress=False)
+    (rule,) = general.rules
+    assert [str(l) for l in rule.context] == ["(dry ?x1)", "(held ?x1)"]
+    assert general.likelihood(unseen.state, unseen.action, unseen.succ, unseen.objects) > 0.99
+    by_name, _ = learn_rules(train, preds, LearnOptions(nochange_prior=0, drop_order="sorted", complete=False),
+                             progress=False)
+    assert [str(l) for l in by_name.rules[0].context] == ["(dry ?x1)", "(up ?x1)"]
+    assert by_name.likelihood(unseen.state, unseen.action, unseen.succ, unseen.objects) < 1e-6
+
+
+def test_completion_adds_what_the_action_was_never_seen_to_do_without():
+    """``stack(X, Y)`` works with ``holding(X)`` and ``ready(X)``. Training: 5 tries that work (all
+    with ``clear(Y)``, ``green(Y)``) and 5 with an empty hand that fail (no ``holding``, no
+    ``ready``). The search needs only one of ``holding``/``ready``; completion adds the other (true
+    in every covered try, and every try without it failed), and neither ``clear(Y)`` nor
+    ``green(Y)``: the action was never tried with them false, so the data say nothing about them."""
+    from groundsym.logic import Atom
+    from groundsym.rules.coverage import Example
+
+    def ex(atoms, works):
+        s = frozenset(Atom(p, tuple(args)) for p, *args in atoms)
+        a = Atom("stack", ("a", "b"))
+        return Example(s, a, s | {Atom("on", ("a", "b"))} if works else s, ("a", "b"))
+    train = [ex([("holding", "a"), ("clear", "b"), ("ready", "a"), ("green", "b")], True) for _ in range(5)]
+    train += [ex([("clear", "b"), ("green", "b")], False) for _ in range(5)]     # empty hand: no ready, fails
+    preds = {"holding": 1, "clear": 1, "ready": 1, "green": 1, "on": 2}
+    plain, _ = learn_rules(train, preds, LearnOptions(complete=False), progress=False)
+    done, _ = learn_rules(train, preds, LearnOptions(), progress=False)
+    ctx = {str(l) for l in done.rules[0].context}
+    assert {str(l) for l in plain.rules[0].context} < ctx
+    assert "(ready ?x1)" in ctx and "(holding ?x1)" in ctx
+    assert "(clear ?x2)" not in ctx and "(green ?x2)" not in ctx   # never seen false: the data say nothing

@@ -50,6 +50,8 @@ class LearnOptions:
     max_rounds: int = 100        # operator rounds per action
     max_deictic: int = 2         # deictic references per rule
     nochange_prior: float = 0.5  # pseudo-count of "no change" in the final outcome probabilities
+    drop_order: str = "general"  # trimming tries the most general literals first ("sorted": by name)
+    complete: bool = True        # add the positive literals the data say the action needs (_complete)
 
 
 @dataclass(frozen=True)
@@ -131,6 +133,7 @@ class ActionLearner:
         self._fits: dict[tuple[Literal, ...], RuleFit | None] = {}
         self._covs: dict[tuple[Literal, ...], Coverage] = {}
         self._refits: dict[tuple, RuleFit] = {}
+        self._general: dict[Literal, float] = {}
         self.total_w = float(table.weights.sum())
 
     # --- fitting and scoring -------------------------------------------------------------------
@@ -232,11 +235,33 @@ class ActionLearner:
             if not improved:
                 break
         d, _ = self.default(R)
+        if self.opts.complete:
+            R = tuple(self._complete(f) for f in R)
+            best = self.score(R)        # same likelihood, the added literals' penalty
         fits = sorted((_smooth(f, self.opts.nochange_prior) for f in self.resolve(R)[0]),
                       key=lambda f: str(f.rule.context))
         stats = {"score": best, "rules": len(fits), "examples": int(len(self.table)),
                  "transitions": self.total_w, "successes": successes}
         return fits, d, stats
+
+    def _complete(self, f: RuleFit) -> RuleFit:
+        """``f`` with each positive literal over the action's arguments that the data say the action
+        needs: it holds in every training example the rule covers (so coverage and fit stay), and
+        in every training example of the action where it is false, nothing changed."""
+        ctx = set(f.rule.context)
+        for a in _atoms_over(self.action.args, self.table.predicates, self.opts.injective):
+            lit = Literal(a, True)
+            if Literal(a, False) in ctx or lit in ctx or not self._needed(a):
+                continue
+            g = self.fit(ctx | {lit})
+            if g is not None and g.covered == f.covered:
+                ctx.add(lit)
+        return self.fit(ctx) if ctx != set(f.rule.context) else f
+
+    def _needed(self, atom: Atom) -> bool:
+        """The action was tried with ``atom`` false, and never changed anything then."""
+        idx = self.table.cover(self.action, (Literal(atom, False),), self.opts.injective).index
+        return len(idx) > 0 and not self.table.changed[idx].any()
 
     def _best_of(self, cands: Iterable[tuple[RuleFit, ...]]) -> tuple[tuple[RuleFit, ...] | None, float]:
         best, best_sc = None, -np.inf
@@ -303,7 +328,7 @@ class ActionLearner:
             changed = True
             while changed:                    # first-improvement sweeps: O(literals) fits per sweep
                 changed = False
-                units = _deictic(ctx, self.action) if drop_vars else sorted(ctx)
+                units = _deictic(ctx, self.action) if drop_vars else self._drop_order(ctx)
                 for u in units:
                     c = {l for l in ctx if u not in l.atom.args} if drop_vars else ctx - {u}
                     if c == ctx or (drop_vars and u not in {a for l in ctx for a in l.atom.args}):
@@ -314,6 +339,31 @@ class ActionLearner:
                         if sc > cur_sc + 1e-9:
                             cur, cur_sc, ctx, changed = f, sc, c, True
         return cur
+
+    def _drop_order(self, ctx: set[Literal]) -> list[Literal]:
+        """The order in which trimming tries to drop literals: most general first.
+
+        Literals that cover the same training examples are interchangeable for the score, and the
+        sweep keeps whichever it reaches last. In name order that kept ``stack(X, Y): not
+        ontable(X)`` rather than ``holding(X)``: both separate the training stacks from the failed
+        ones, but the first also claims every block standing on another one, and on held-out data
+        the rule then predicts a stack where nothing can happen. Trying the literal that holds in
+        the most training examples of the action first keeps the most specific one of such a
+        group, what an operator's precondition is (docs/rules.md)."""
+        if self.opts.drop_order == "sorted":
+            return sorted(ctx)
+        return sorted(ctx, key=lambda l: (-self._generality(l), l))
+
+    def _generality(self, lit: Literal) -> float:
+        """Weight of this action's training examples in which ``lit`` holds for the action's
+        arguments; a literal over a deictic reference counts as holding everywhere (tried first,
+        as before: trimming references is a separate sweep)."""
+        if any(a not in self.action.args for a in lit.atom.args):
+            return self.total_w
+        if lit not in self._general:
+            cov = self.table.cover(self.action, (lit,), self.opts.injective)
+            self._general[lit] = float(self.table.weights[cov.index].sum())
+        return self._general[lit]
 
     def drop_rules(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
         for k in range(len(R)):
