@@ -1,4 +1,4 @@
-"""Loss evaluations per second at the paper's size: 7 objects, 160 transitions, 1 unary + 1 binary
+"""Loss evaluations per CPU second at the paper's size: 7 objects, 160 transitions, 1 unary + 1 binary
 symbol, one core.
 
 Two workloads, each on a fresh :class:`~groundsym.loss.Loss` (empty caches), timed in CPU seconds
@@ -9,28 +9,35 @@ of this process (the machine is shared):
 * ``random``: independent random symbol sets (centres from the data, random widths), the worst
   case for caches.
 
-Also prints the time the paper's 1e5 budget would take at the annealing rate.
+Each is timed with the compiled kernels (the default) and with the numpy reference they mirror;
+the compilation (or loading numba's on-disk cache) is timed apart, once per process. With
+``--before REV`` the same workloads also run on the code of commit REV (checked out in a
+temporary git worktree, run in a subprocess), alternating with the current code, and the ratio
+is printed: a ratio in one run, on the same data, is what a loaded machine can measure.
 
-    .venv/bin/python benchmarks/bench_loss.py [--traces FILE] [--evals 3000]
+    .venv/bin/python benchmarks/bench_loss.py --traces tower16.json --evals 3000 --before 1648be7
+    # tower16.json: groundsym collect --sim tower --traces 16 --seed 0 -o tower16.json
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
+import json
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(os.environ.get("GROUNDSYM_BENCH_ROOT") or Path(__file__).resolve().parents[1])
 sys.path.insert(0, str(ROOT))
 
 from groundsym.anneal import AnnealConfig, _random_symbol, advance, start_restart  # noqa: E402
-from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
+from groundsym.loss import Loss, prepare  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
-from tests.test_loss import kinematic_tower  # noqa: E402
 
 
 def cpu_rate(fn, n: int) -> float:
@@ -40,41 +47,91 @@ def cpu_rate(fn, n: int) -> float:
     return n / (time.process_time() - t0)
 
 
-def annealing_rate(data, loss_cfg: LossConfig, cfg: AnnealConfig, evals: int, label: str) -> float:
-    """Loss evaluations per CPU second of one annealing restart (caches warm up as in a real run)."""
-    loss = Loss(data, loss_cfg)
+def _loss(data, kernels: str | None) -> Loss:
+    return Loss(data) if kernels is None else Loss(data, kernels=kernels)
+
+
+def workloads(traces: Path | None, evals: int, kernels: str | None) -> dict[str, float]:
+    """Both workloads on one kind of kernels; returns the rates and the compile time."""
+    out: dict[str, float] = {}
+    import groundsym
+    here = Path(groundsym.__file__).resolve().parent
+    out["compile_s"] = 0.0
+    if (here / "compiled.py").exists() and kernels != "numpy":   # (code from before has none)
+        from groundsym import compiled
+        out["compile_s"] = compiled.warm_up()
+    if traces is not None:
+        ds = read_traces(traces)
+    else:
+        sys.path.insert(0, str(ROOT / "tests"))
+        from test_loss import kinematic_tower
+        ds = kinematic_tower(16, seed=1)
+    data = prepare(ds)
+    cfg = AnnealConfig(evals=evals * 4, restarts=4)
+    loss = _loss(data, kernels)
     state = start_restart(0, 0, loss, cfg)
-    a = cpu_rate(lambda: advance(state, loss, cfg, evals), evals)
-    print(f"annealing, {label}: one restart, {evals} evaluations on one core: {a:.0f} evals per CPU second "
-          f"(1e5 evaluations: {1e5 / a / 60:.1f} CPU minutes; {len(loss._abstraction_cache)} distinct abstractions)")
-    return a
+    out["annealing"] = cpu_rate(lambda: advance(state, loss, cfg, evals), evals)
+    out["abstractions"] = len(loss._abstraction_cache)
+    rng = np.random.default_rng(0)
+    n_random = max(evals // 10, 50)
+    sets = [[_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)] for _ in range(n_random)]
+    fresh = _loss(data, kernels)
+    out["random"] = cpu_rate(lambda: [fresh(c) for c in sets], n_random)
+    out["transitions"], out["objects"] = data.n_transitions, data.features.shape[1]
+    return out
+
+
+def run_elsewhere(root: Path, traces: Path | None, evals: int) -> dict[str, float]:
+    """The workloads on the code at ``root`` (another checkout), in a subprocess."""
+    env = dict(os.environ, GROUNDSYM_BENCH_ROOT=str(root), PYTHONPATH=str(root))
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--evals", str(evals), "--json-only"]
+    if traces:
+        cmd += ["--traces", str(traces.resolve())]
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def report(label: str, r: dict[str, float]) -> None:
+    print(f"{label}: annealing {r['annealing']:.0f} evals per CPU second (1e5: {1e5 / r['annealing'] / 60:.1f} CPU min; "
+          f"{r['abstractions']} distinct abstractions), random sets {r['random']:.0f} per CPU second"
+          + (f"; compile/load {r['compile_s']:.1f} s" if r.get("compile_s") else ""))
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--traces", type=Path, help="continuous traces (default: 16 fixture traces, 7 objects)")
     ap.add_argument("--evals", type=int, default=3000, help="evaluations of the annealing workload")
-    ap.add_argument("--compare-previous", action="store_true",
-                    help="also the loss and search settings before December 2026, and the ratio")
+    ap.add_argument("--before", metavar="REV", help="also the code of this git revision, alternating, and the ratio")
+    ap.add_argument("--rounds", type=int, default=2, help="alternations with --before (medians are reported)")
+    ap.add_argument("--json-only", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
-    ds = read_traces(args.traces) if args.traces else kinematic_tower(16, seed=1)
-    data = prepare(ds)
-    cfg = AnnealConfig(evals=args.evals * 4, restarts=4)
-    print(f"data: {data.n_transitions} transitions, {data.features.shape[1]} objects"
+    if args.json_only:
+        print(json.dumps(workloads(args.traces, args.evals, None)))
+        return 0
+    now = workloads(args.traces, args.evals, None)
+    print(f"data: {now['transitions']} transitions, {now['objects']} objects"
           f"{' from ' + str(args.traces) if args.traces else ' (kinematic fixture world)'}; 1 unary + 1 binary")
-    a = annealing_rate(data, LossConfig(), cfg, args.evals, "current loss")
-    if args.compare_previous:
-        old = annealing_rate(data, LossConfig(predict="successor", width_cap=0.0),
-                             dataclasses.replace(cfg, p_ignore=0.0), args.evals,
-                             "loss before December 2026 (successor copy, no width cap, no ignored dimensions)")
-        print(f"current / previous: {a / old:.2f}")
-    rng = np.random.default_rng(0)
-    n_random = max(args.evals // 10, 50)
-    random = [[_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
-              for _ in range(n_random)]
-    fresh = Loss(data)
-    r = cpu_rate(lambda: [fresh(c) for c in random], n_random)
-    print(f"random symbol sets (no reuse): {n_random} evaluations, {r:.0f} evals per CPU second")
+    report("compiled kernels", now)
+    ref = workloads(args.traces, args.evals, "numpy")
+    report("numpy reference", ref)
+    print(f"compiled / reference: annealing {now['annealing'] / ref['annealing']:.2f}x, random {now['random'] / ref['random']:.2f}x")
+    if args.before:
+        wt = Path(tempfile.mkdtemp(prefix="groundsym-before-")) / "tree"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(wt), args.before],
+                       check=True, capture_output=True)
+        try:
+            after, before = [now], []
+            for k in range(args.rounds):
+                before.append(run_elsewhere(wt, args.traces, args.evals))
+                if k:
+                    after.append(workloads(args.traces, args.evals, None))
+            med = {w: (float(np.median([r[w] for r in after])), float(np.median([r[w] for r in before])))
+                   for w in ("annealing", "random")}
+            report(f"code at {args.before} (median of {len(before)})", {**before[0], **{w: b for w, (_, b) in med.items()}})
+            print(f"now / {args.before}: annealing {med['annealing'][0] / med['annealing'][1]:.2f}x, "
+                  f"random {med['random'][0] / med['random'][1]:.2f}x (medians of {len(after)} and {len(before)} runs)")
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], capture_output=True)
     return 0
 
 

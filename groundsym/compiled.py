@@ -382,6 +382,83 @@ def needing_search(ucode, ecode, col, perms):
     return need, groups
 
 
+@njit(cache=True)
+def _hash_bytes(x):
+    h = np.uint64(0xCBF29CE484222325)
+    for v in x:
+        h = _mix(h ^ np.uint64(v))
+    return np.int64(h >> np.uint64(1))
+
+
+@njit(cache=True)
+def canonical_batch(unary, binary, lock, ucode, ecode, memo):
+    """canonical.canonical_forms compiled whole, with a per-state memo.
+
+    A state's form and order are functions of the state alone, so they are kept in ``memo`` (a
+    numba typed dict: hash of the state's own encoding -> its encoding, form and order, checked
+    byte for byte on every hit; a hash collision is computed afresh and not stored). Returns
+    (forms (N, R) uint8, perms (N, M) int64).
+    """
+    n, m = ucode.shape
+    k = unary.shape[2]
+    l = binary.shape[3]
+    r_len = m + m * k + m * m * l
+    forms = np.empty((n, r_len), dtype=np.uint8)
+    perms = np.empty((n, m), dtype=np.int64)
+    ident = np.arange(m)
+    for i in range(n):
+        raw = _encode_row(unary[i], binary[i], lock[i], ident)
+        h = _hash_bytes(raw)
+        if h in memo:
+            entry = memo[h]
+            if _equal(entry[:r_len], raw):
+                forms[i] = entry[r_len:2 * r_len]
+                for p in range(m):
+                    perms[i, p] = entry[2 * r_len + p]
+                continue
+            store = False
+        else:
+            store = True
+        col = np.empty(m, dtype=np.uint64)
+        for x in range(m):
+            col[x] = _mix(np.uint64(ucode[i, x]) + P0)
+        refine_row(col, ecode[i])
+        perm = _order_row(col, lock[i])
+        need = False
+        groups = ident
+        if m >= 2:
+            tie = False
+            for c in range(m - 1):
+                if col[perm[c]] == col[perm[c + 1]]:
+                    tie = True
+                    break
+            if tie:
+                groups = twin_groups_row(ucode[i], ecode[i])
+                for c in range(m - 1):
+                    if col[perm[c]] == col[perm[c + 1]] and groups[perm[c]] != groups[perm[c + 1]]:
+                        need = True
+                        break
+        if need:
+            form, perm = individualise(unary[i], binary[i], lock[i], ecode[i], groups, col)
+        else:
+            form = _encode_row(unary[i], binary[i], lock[i], perm)
+        forms[i] = form
+        perms[i] = perm
+        if store:
+            entry = np.empty(2 * r_len + m, dtype=np.uint8)
+            entry[:r_len] = raw
+            entry[r_len:2 * r_len] = form
+            for p in range(m):
+                entry[2 * r_len + p] = np.uint8(perm[p])
+            memo[h] = entry
+    return forms, perms
+
+
+def new_state_memo():
+    """An empty per-state memo for :func:`canonical_batch` (int64 -> uint8[:])."""
+    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.uint8[:])
+
+
 # ----------------------------------------------------------------------------- nearest classes
 
 @njit(cache=True, inline="always")
@@ -890,4 +967,6 @@ def warm_up() -> float:
         for i in range(4):
             cyc[0, i, (i + 1) % 4, 0] = 1
         canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64), kernels="numba")
+        z4 = np.zeros((1, 4), dtype=np.int64)
+        canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, z4, cyc[..., 0].astype(np.int64), new_state_memo())
     return time.perf_counter() - t0

@@ -203,6 +203,7 @@ class Loss:
         self._class_ids: dict[bytes, int] = {}
         self._pair_memo = compiled.new_memo() if kernels == "numba" else None
         self._order_cache = compiled.new_order_cache() if kernels == "numba" else None
+        self._state_memo = compiled.new_state_memo() if kernels == "numba" else None
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -253,7 +254,13 @@ class Loss:
         of a class with others has those others as its neighbours at distance 0. A lone item's
         neighbours are all members of the nearest other classes, found by branch and bound.
         """
-        forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
+        if self.kernels == "numba" and u.shape[1] <= 255:
+            if len(self._state_memo) > 200_000:
+                self._state_memo = compiled.new_state_memo()
+            lock64 = lock.astype(np.int64, copy=False)
+            forms, perms = compiled.canonical_batch(u, b, lock64, object_codes(u, lock64), codes(b), self._state_memo)
+        else:
+            forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
         keys = np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1)
         first, cls = group_rows(keys)
         order = np.argsort(cls, kind="stable")
