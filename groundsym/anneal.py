@@ -26,6 +26,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from . import compiled
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
 from .loss import Loss, LossConfig, LossData, LossTerms, active_columns
@@ -341,6 +342,8 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+    if workers > 1 and compiled.AVAILABLE:
+        compiled.warm_up()    # load the loss kernels once here: forked workers inherit them
     pool, mask = start_workers(ctx, workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else (None, None)
     if pool is None:
         _init_worker(data, loss_cfg, cfg)
