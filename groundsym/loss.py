@@ -263,12 +263,10 @@ class Loss:
             forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
         keys = np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1)
         first, cls = group_rows(keys)
-        order = np.argsort(cls, kind="stable")
-        bounds = np.searchsorted(cls[order], np.arange(len(first) + 1))
-        members = [order[bounds[k]:bounds[k + 1]] for k in range(len(first))]
+        sizes = np.bincount(cls, minlength=len(first))
         if self.kernels == "numba" and u.shape[1] <= ENUMERATE_MAX:
-            lone = np.flatnonzero(np.diff(bounds) == 1)
-            return self._nearest_compiled(lone, u, b, lock, label, perms, first, keys, cls)
+            return self._nearest_compiled(np.flatnonzero(sizes == 1), u, b, lock, label, perms, first, keys, cls)
+        members = class_members(cls, len(first))
         reps = [self._encoded(u, b, lock, label, perms, int(first[k])) for k in range(len(first))]
         rep_keys = [keys[first[k]].tobytes() for k in range(len(first))]
         profile = _profiles(u, b, first)
@@ -503,8 +501,8 @@ def transition_entries(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.n
     partner: list[int] = []
     mis: list[int] = []
     weight: list[int] = []
-    hits = nb.hits
-    for k, group in enumerate(nb.members):
+    hits, members = nb.hits, nb.members
+    for k, group in enumerate(members):
         if len(group) > 1:
             first, pattern = group_rows(flat[group])
             counts = np.bincount(pattern, minlength=len(first))
@@ -526,7 +524,7 @@ def transition_entries(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.n
             continue
         own, now = perms[i], pre[i]
         for c, sigma in hits[k][1]:
-            for j in nb.members[c].tolist():
+            for j in members[c].tolist():
                 obj = perms[j][sigma]                      # neighbour objects in the item's canonical order
                 pred_u = u[post[j]][obj]
                 pred_b = b[post[j]][obj[:, None], obj[None, :]]
@@ -640,10 +638,7 @@ class Neighbourhood:
     @property
     def members(self) -> list[np.ndarray]:
         """Members of each class, in increasing item order."""
-        n = int(self.cls.max()) + 1 if len(self.cls) else 0
-        order = np.argsort(self.cls, kind="stable")
-        bounds = np.searchsorted(self.cls[order], np.arange(n + 1))
-        return [order[bounds[k]:bounds[k + 1]] for k in range(n)]
+        return class_members(self.cls, int(self.cls.max()) + 1 if len(self.cls) else 0)
 
     @property
     def hits(self) -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
@@ -664,6 +659,13 @@ class Neighbourhood:
         return Neighbourhood(cls, perms, lone, best, np.array([r[0] for r in rows], dtype=np.int64),
                              np.array([r[1] for r in rows], dtype=np.int64),
                              np.array([r[2] for r in rows], dtype=np.int64).reshape(len(rows), m))
+
+
+def class_members(cls: np.ndarray, n: int) -> list[np.ndarray]:
+    """Items of each class ``0..n-1``, in increasing item order."""
+    order = np.argsort(cls, kind="stable")
+    bounds = np.searchsorted(cls[order], np.arange(n + 1))
+    return [order[bounds[k]:bounds[k + 1]] for k in range(n)]
 
 
 def mixture_ll(item: np.ndarray, lp: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:
