@@ -1,4 +1,4 @@
-"""The tower cell: a Franka Panda building towers of cubes (and balls) on a table, as a Sim.
+"""The tower cell: a Franka Panda building towers of cubes (and balls, cans) on a table, as a Sim.
 
 The paper's first scenario (Section VI-B): objects ``o1 .. oM`` (cubes of two sizes, optionally
 balls of a third diameter) lie on a table; the robot runs the primitives ``closeHandAround(X)`` and
@@ -7,8 +7,8 @@ balls of a third diameter) lie on a table; the robot runs the primitives ``close
 in :mod:`sims.tower_world`; this module turns the simulator's poses and contacts into scenes,
 rewards and (for evaluation only) ground-truth atoms. ``docs/tower.md`` describes the cell.
 
-Reward: ``r`` = mean over cubes of the height of the cube's lowest point above the table top, in
-metres; a cube in the hand counts 0, so the reward measures towers, not holding. Episode value
+Reward: ``r`` = mean over cubes (and cans, with ``cans=N``: upright cylinders that stack as cubes
+do) of the height of the object's lowest point above the table top, in metres; one in the hand counts 0, so the reward measures towers, not holding. Episode value
 ``V = sum_{t=1..10} gamma^(t-1) r_t`` with ``gamma = 0.8``, the discount the paper states for its
 experiments. :func:`optimal_episode_value` gives the best value in the deterministic world.
 """
@@ -45,11 +45,14 @@ OPTIONS: tuple[SimOption, ...] = (
     SimOption("cubes", int, 7, "number of cubes"),
     SimOption("big", int, None, "how many of the cubes are big (default: 3/7 of them, rounded: 3 of 7)"),
     SimOption("balls", int, 0, "number of balls"),
+    SimOption("cans", int, 0, "number of cans (upright cylinders, as tall as wide; they count in the reward as cubes do)",
+              recorded_at_default=False),
     SimOption("noise", float, 0.0075, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target "
               "(default chosen from examples/tower_reliability.py, docs/tower.md)"),
     SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
     SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
     SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
+    SimOption("can_size", float, 0.042, "diameter and height of a can (m)", recorded_at_default=False),
     SimOption("features", str, "pose", "what the learner sees of each object: pose (x, y, z, size from the simulator) "
               "or pointcloud (mean and shape of the object's points seen by the depth camera, docs/perception.md)",
               recorded_at_default=False),
@@ -76,22 +79,24 @@ def _check(opts: dict[str, Any]) -> None:
     def bad(key: str, why: str) -> UserError:
         return UserError(f"--sim-opt {key}={opts[key]}: {why}")
 
-    for key in ("cubes", "big", "balls"):
+    for key in ("cubes", "big", "balls", "cans"):
         if opts[key] < 0:
             raise bad(key, "must be at least 0")
-    if opts["cubes"] + opts["balls"] < 1:
+    if opts["cubes"] + opts["balls"] + opts["cans"] < 1:
         raise bad("cubes", "the cell needs at least one object")
-    if opts["cubes"] + opts["balls"] > 10:
-        raise bad("cubes", "at most 10 objects (cubes + balls) fit on the table with room for the hand")
+    if opts["cubes"] + opts["balls"] + opts["cans"] > 10:
+        raise bad("cubes", "at most 10 objects (cubes + balls + cans) fit on the table with room for the hand")
     if opts["big"] > opts["cubes"]:
         raise bad("big", f"more big cubes than cubes ({opts['cubes']})")
     if not 0.0 <= opts["noise"] <= 0.05:
         raise bad("noise", "expected a standard deviation between 0 and 0.05 m")
-    for key in ("small_size", "big_size", "ball_size"):
+    for key in ("small_size", "big_size", "ball_size", "can_size"):
         if not 0.02 <= opts[key] <= 0.065:
             raise bad(key, "expected a size between 0.02 and 0.065 m (the open hand spans 0.072 m)")
     if len({opts["small_size"], opts["big_size"], opts["ball_size"]}) < 3:
         raise bad("ball_size", "small cubes, big cubes and balls need three distinct sizes")
+    if opts["cans"] and opts["can_size"] in (opts["small_size"], opts["big_size"], opts["ball_size"]):
+        raise bad("can_size", "cans need a size distinct from the cubes' and the balls'")
     if opts["big_size"] <= opts["small_size"]:
         raise bad("big_size", "must be larger than small_size")
     if opts["features"] not in FEATURE_SPACES:
@@ -122,7 +127,8 @@ class TowerSim:
     def __init__(self, **options: Any) -> None:
         opts = resolve_options(options)
         self.options = recorded_options(OPTIONS, opts)       # what traces record (see SimOption)
-        self.objects = tuple(f"o{i + 1}" for i in range(opts["cubes"] + opts["balls"]))
+        self.resolved = opts                                 # every option, defaults filled in
+        self.objects = tuple(f"o{i + 1}" for i in range(opts["cubes"] + opts["balls"] + opts["cans"]))
         self.world = TowerWorld()
         self.rng = np.random.default_rng(0)
         self.kinds: list[tuple[str, float]] = []
@@ -150,9 +156,9 @@ class TowerSim:
         if self.camera is not None:                  # its own stream: depth noise never shifts motor noise
             self.camera.seed(np.random.default_rng([seed, CAMERA_STREAM]))
         self.seen_features = None
-        o = self.options
+        o = self.resolved
         kinds = ([("cube", o["big_size"])] * o["big"] + [("cube", o["small_size"])] * (o["cubes"] - o["big"])
-                 + [("ball", o["ball_size"])] * o["balls"])
+                 + [("ball", o["ball_size"])] * o["balls"] + [("can", o["can_size"])] * o["cans"])
         self.kinds = [kinds[i] for i in self.rng.permutation(len(kinds))]
         xy = sample_positions(self.rng, len(self.kinds))
         yaws = self.rng.uniform(-np.pi / 4, np.pi / 4, len(self.kinds))
@@ -190,7 +196,7 @@ class TowerSim:
         pos, orn = self.world.poses()
         sizes = np.array([size for _, size in self.kinds])
         held = self._inhand()
-        lowest = lowest_points(pos, orn, sizes, [shape == "ball" for shape, _ in self.kinds])
+        lowest = lowest_points(pos, orn, sizes, [shape for shape, _ in self.kinds])
         reward, truth = self._reward(lowest, held), self._truth(pos, held)
         if self.camera is None:
             return Scene(self.objects, np.column_stack([pos, sizes]), reward, truth)
@@ -207,11 +213,11 @@ class TowerSim:
         return self.seen_features.copy(), seen
 
     def _reward(self, lowest: np.ndarray, held: set[int]) -> float:
-        cubes = [i for i, (shape, _) in enumerate(self.kinds) if shape == "cube"]
-        if not cubes:
+        blocks = [i for i, (shape, _) in enumerate(self.kinds) if shape != "ball"]     # cubes and cans
+        if not blocks:
             return 0.0
         h = np.where(lowest < ON_TABLE_TOL, 0.0, lowest)
-        return float(np.mean([0.0 if i in held else h[i] for i in cubes]))
+        return float(np.mean([0.0 if i in held else h[i] for i in blocks]))
 
     def _inhand(self) -> set[int]:
         """Objects in the grasp: the stabilised one, or any squeezed between both fingers off the table."""
@@ -316,13 +322,15 @@ def sample_positions(rng: np.random.Generator, n: int) -> np.ndarray:
     raise RuntimeError(f"could not place {n} objects {MIN_GAP} m apart")  # not reached for n <= 10
 
 
-def lowest_points(pos: np.ndarray, orn: np.ndarray, sizes: np.ndarray, balls: list[bool]) -> np.ndarray:
-    """Height of each object's lowest point: a cube's lowest corner whatever its tilt."""
+def lowest_points(pos: np.ndarray, orn: np.ndarray, sizes: np.ndarray, shapes: list[str]) -> np.ndarray:
+    """Height of each object's lowest point: a cube's lowest corner, a can's lowest rim point, whatever
+    their tilt (a can is as tall as it is wide)."""
     out = pos[:, 2] - sizes / 2
     for k, q in enumerate(orn):
-        if not balls[k]:
+        if shapes[k] != "ball":
             rz = np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)[2]
-            out[k] = pos[k, 2] - sizes[k] / 2 * np.abs(rz).sum()
+            reach = np.abs(rz).sum() if shapes[k] == "cube" else abs(rz[2]) + np.sqrt(max(0.0, 1 - rz[2] ** 2))
+            out[k] = pos[k, 2] - sizes[k] / 2 * reach
     return out
 
 

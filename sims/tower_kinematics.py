@@ -86,8 +86,12 @@ class ArmKinematics:
             pb.removeBody(uid, physicsClientId=c)
         self.obstacles = []
         for shape, size, pos, orn in objects:
-            col = (pb.createCollisionShape(pb.GEOM_BOX, halfExtents=(size / 2,) * 3, physicsClientId=c)
-                   if shape == "cube" else pb.createCollisionShape(pb.GEOM_SPHERE, radius=size / 2, physicsClientId=c))
+            if shape == "cube":
+                col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=(size / 2,) * 3, physicsClientId=c)
+            elif shape == "can":
+                col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=size / 2, height=size, physicsClientId=c)
+            else:
+                col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=size / 2, physicsClientId=c)
             self.obstacles.append(pb.createMultiBody(0, col, -1, list(pos), list(orn), physicsClientId=c))
 
     def clearance(self, q: np.ndarray, reach: float = 0.1) -> float:

@@ -10,7 +10,7 @@ changes nothing) by dynamic programming over states, which are identified up to 
 cubes, and returns the plan of the highest discounted value ``sum_t gamma^(t-1) r_t``.
 
 Balls do not count in the reward and nothing can stand on a ball, so they play no part in the
-optimum.
+optimum. Cans (as tall as wide) stack and count as cubes of their size do.
 """
 
 from __future__ import annotations
@@ -68,10 +68,11 @@ def _successors(towers: Towers, hand: float | None) -> list[tuple[tuple, Towers,
 
 def best_plan(options: dict[str, Any], gamma: float, length: int) -> Plan:
     """Exhaustive dynamic programming over the size-labelled tower states (see module doc)."""
-    n_cubes = options["cubes"]
+    n_cubes = options["cubes"] + options.get("cans", 0)          # cans stack and count as cubes do
     if n_cubes == 0:
         return Plan(0.0, (), (0.0,) * length)
-    sizes = [options["big_size"]] * options["big"] + [options["small_size"]] * (n_cubes - options["big"])
+    sizes = ([options["big_size"]] * options["big"] + [options["small_size"]] * (options["cubes"] - options["big"])
+             + [options.get("can_size", 0.0)] * options.get("cans", 0))
     start = _canon([(s,) for s in sizes])
 
     @lru_cache(maxsize=None)

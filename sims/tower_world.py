@@ -82,7 +82,7 @@ class Body:
     """One manipulable object: its pybullet id, shape and size (edge or diameter, in metres)."""
 
     uid: int
-    shape: str                     # "cube" or "ball"
+    shape: str                     # "cube", "ball" or "can" (an upright cylinder as tall as it is wide)
     size: float
 
 
@@ -149,6 +149,11 @@ class TowerWorld:
             colour = (0.85, 0.25, 0.2, 1) if size < 0.045 else (0.2, 0.35, 0.85, 1)
             vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=(half,) * 3, rgbaColor=colour, physicsClientId=c)
             mass = 800.0 * size ** 3
+        elif shape == "can":                                         # upright cylinder, height = diameter
+            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=half, height=size, physicsClientId=c)
+            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=half, length=size, rgbaColor=(0.9, 0.75, 0.15, 1),
+                                       physicsClientId=c)
+            mass = 800.0 * np.pi / 4 * size ** 3
         else:
             col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=half, physicsClientId=c)
             vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=half, rgbaColor=(0.2, 0.7, 0.3, 1), physicsClientId=c)
