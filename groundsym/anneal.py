@@ -342,8 +342,9 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    if workers > 1 and compiled.AVAILABLE:
-        compiled.warm_up()    # load the loss kernels once here: forked workers inherit them
+    if (workers > 1 or executor is not None) and compiled.AVAILABLE:
+        compiled.warm_up()    # load the loss kernels once here: forked workers inherit them, and
+                              # a Ray worker on this machine finds them in numba's disk cache
     pool, mask = start_workers(ctx, workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else (None, None)
     if pool is None:
         _init_worker(data, loss_cfg, cfg)

@@ -290,6 +290,8 @@ def evaluate(cfg: EvalConfig, runs: int, out: str | Path, workers: int = 1, prog
     todo = [(N, r) for r in range(runs) for N in cfg.symbol_data if not unit_path(out, N, r).exists()]
     total = runs * len(cfg.symbol_data)
     executor = executor or ProcessExecutor(workers)
+    if todo and not cfg.truth_symbols and not (isinstance(executor, ProcessExecutor) and executor.workers <= 1):
+        warm_up_kernels()     # fill numba's disk cache once here: this machine's workers load it, none compiles
     bar = Progress(len(todo), "evaluate", enabled=progress)    # the ETA counts this call's units only
     done = total - len(todo)
     bar.update(0, f"{done} of {total} unit(s) resumed from {out / 'runs'}; running on {executor.description}",
@@ -297,11 +299,18 @@ def evaluate(cfg: EvalConfig, runs: int, out: str | Path, workers: int = 1, prog
     for k, result in enumerate(executor.as_completed(run_unit, [(cfg, N, r) for N, r in todo]), 1):
         save_unit(out, result)
         done += 1
-        bar.update(k, f"{done}/{total} units done | {_status(out, cfg, runs)}")
+        bar.update(k, f"{done}/{total} units done | {_status(out, cfg, runs)}", force=True)   # a line per unit
     bar.close()
     results = aggregate(out, cfg, runs, optimum, provenance)
     write_outputs(out, results)
     return results
+
+
+def warm_up_kernels() -> None:
+    from . import compiled
+
+    if compiled.AVAILABLE:
+        compiled.warm_up()
 
 
 def save_unit(out: Path, result: Mapping[str, Any]) -> None:
