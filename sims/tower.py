@@ -32,6 +32,8 @@ from .camera_picture import write_camera_png
 from .tower_camera import DepthCamera, Frame
 from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld, pb
 
+ARM_URDF = "franka_panda/panda.urdf"   # the arm TowerWorld loads (the camera renders it coarser)
+
 GAMMA = 0.8
 EPISODE_LENGTH = 10
 REGION_X = (0.35, 0.65)            # where start positions are drawn (reachable, in front of the arm)
@@ -163,6 +165,8 @@ class TowerSim:
         xy = sample_positions(self.rng, len(self.kinds))
         yaws = self.rng.uniform(-np.pi / 4, np.pi / 4, len(self.kinds))
         self.world.build([(shape, size, x, y, yaw) for (shape, size), (x, y), yaw in zip(self.kinds, xy, yaws)])
+        if self.camera is not None:                  # it renders a copy whose arm has coarser looks
+            self.camera.watch(self.world.client, self.world.robot, ARM_URDF)
         return self.scene()
 
     def actions(self) -> list[Atom]:
@@ -299,6 +303,8 @@ class TowerSim:
 
     def close(self) -> None:
         self.world.close()
+        if self.camera is not None:
+            self.camera.close()
 
     def __enter__(self) -> "TowerSim":
         return self

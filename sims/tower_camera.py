@@ -18,9 +18,12 @@ the camera's pose and intrinsics.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet_data
 
 from .tower_kinematics import pb
 
@@ -100,8 +103,93 @@ def corrupt(cam: np.ndarray, noise: float, dropout: float, rng: np.random.Genera
     return out
 
 
+def coarse_arm_urdf(urdf: str) -> str:
+    """A copy of the arm's URDF (in a temporary folder) whose links look like their collision meshes:
+    the geometry the physics simulates, a few thousand triangles instead of the detailed visual
+    meshes' hundreds of thousands (the CPU renderer's cost grows with the triangles)."""
+    folder = os.path.dirname(os.path.join(pybullet_data.getDataPath(), urdf))
+    with open(os.path.join(pybullet_data.getDataPath(), urdf)) as f:
+        text = f.read()
+    text = text.replace("package://meshes/visual/", "package://meshes/collision/")
+    text = text.replace("package://meshes/", folder + "/meshes/")
+    out = os.path.join(tempfile.mkdtemp(prefix="groundsym-camera-"), os.path.basename(urdf))
+    with open(out, "w") as f:
+        f.write(text)
+    return out
+
+
+class RenderTwin:
+    """What the camera renders: a copy of a world's looks in a pybullet client of its own, the arm
+    with its collision meshes as its looks, every other body with its own visual shape. Before each
+    frame the copy takes the world's body poses and joint angles (a few dozen calls); segment ids
+    are mapped back to the world's body ids. Objects are rendered exactly as in the world; only
+    the arm's surface is coarser (its collision hull, a few mm outside the detailed mesh)."""
+
+    def __init__(self, arm_urdf: str):
+        self.client = pb.connect(pb.DIRECT)
+        self.arm = pb.loadURDF(coarse_arm_urdf(arm_urdf), (0, 0, 0), useFixedBase=True, physicsClientId=self.client)
+        self.joints = list(range(pb.getNumJoints(self.arm, physicsClientId=self.client)))
+        self.pairs: list[tuple[int, int]] = []          # (world body, copy) of every body but the arm
+        self.world = self.world_arm = -1
+        self.to_world = np.zeros(0, dtype=np.int64)
+
+    def watch(self, client: int, arm: int) -> None:
+        """Copy the looks of every body of world ``client`` but ``arm`` (call after the world is
+        rebuilt; the previous copies are removed)."""
+        c = self.client
+        for _, copy in self.pairs:
+            pb.removeBody(copy, physicsClientId=c)
+        self.pairs = []
+        for k in range(pb.getNumBodies(physicsClientId=client)):
+            uid = pb.getBodyUniqueId(k, physicsClientId=client)
+            if uid == arm:
+                continue
+            v = pb.getVisualShapeData(uid, physicsClientId=client)[0]
+            kind, dims, colour = v[2], v[3], v[7]
+            frame = {"visualFramePosition": v[5], "visualFrameOrientation": v[6], "rgbaColor": colour,
+                     "physicsClientId": c}
+            if kind == pb.GEOM_BOX:
+                shape = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[x / 2 for x in dims], **frame)
+            elif kind == pb.GEOM_SPHERE:
+                shape = pb.createVisualShape(pb.GEOM_SPHERE, radius=dims[0], **frame)
+            elif kind == pb.GEOM_CYLINDER:
+                shape = pb.createVisualShape(pb.GEOM_CYLINDER, length=dims[0], radius=dims[1], **frame)
+            else:
+                raise ValueError(f"body {uid}: the camera copies boxes, spheres and cylinders, not geometry {kind}")
+            self.pairs.append((uid, pb.createMultiBody(0, -1, shape, physicsClientId=c)))
+        ids = [(copy, uid) for uid, copy in self.pairs] + [(self.arm, arm)]
+        self.to_world = np.full(max(i for i, _ in ids) + 2, -1, dtype=np.int64)
+        for copy, uid in ids:
+            self.to_world[copy] = uid
+        self.world, self.world_arm = client, arm
+
+    def sync(self) -> None:
+        """The copy takes the world's current poses and joint angles (and copies the bodies again
+        when the world has gained or lost some since)."""
+        c, w = self.client, self.world
+        if pb.getNumBodies(physicsClientId=w) != len(self.pairs) + 1:
+            self.watch(w, self.world_arm)
+        for uid, copy in self.pairs:
+            pos, orn = pb.getBasePositionAndOrientation(uid, physicsClientId=w)
+            pb.resetBasePositionAndOrientation(copy, pos, orn, physicsClientId=c)
+        pos, orn = pb.getBasePositionAndOrientation(self.world_arm, physicsClientId=w)
+        pb.resetBasePositionAndOrientation(self.arm, pos, orn, physicsClientId=c)
+        for j, state in zip(self.joints, pb.getJointStates(self.world_arm, self.joints, physicsClientId=w)):
+            pb.resetJointState(self.arm, j, state[0], physicsClientId=c)
+
+    def segments(self, seg: np.ndarray) -> np.ndarray:
+        """The copy's segment ids as the world's body ids (-1: none)."""
+        return np.where(seg >= 0, self.to_world[np.clip(seg, 0, len(self.to_world) - 1)], -1)
+
+    def close(self) -> None:
+        if self.client >= 0:
+            pb.disconnect(physicsClientId=self.client)
+            self.client = -1
+
+
 class DepthCamera:
-    """The cell's camera; :meth:`capture` renders the current world of a pybullet client."""
+    """The cell's camera; :meth:`capture` renders the current world of a pybullet client (with
+    :meth:`watch`, through a :class:`RenderTwin` whose arm has coarser looks)."""
 
     def __init__(self, noise: float = 0.0, dropout: float = 0.0, width: int = WIDTH, height: int = HEIGHT):
         self.noise, self.dropout = noise, dropout
@@ -109,23 +197,42 @@ class DepthCamera:
         self.view = view_matrix()
         self.proj = projection_matrix(width, height)
         self.rng: np.random.Generator | None = None
+        self.twin: RenderTwin | None = None
 
     def seed(self, rng: np.random.Generator) -> None:
         """The camera's own Generator (its noise never shifts the motor noise's draws)."""
         self.rng = rng
 
+    def watch(self, client: int, arm: int, arm_urdf: str) -> None:
+        """Render world ``client`` from now on through a copy whose arm ``arm`` (loaded from
+        ``arm_urdf``, relative to pybullet_data) looks like its collision meshes; call again after
+        the world is rebuilt."""
+        if self.twin is None:
+            self.twin = RenderTwin(arm_urdf)
+        self.twin.watch(client, arm)
+
     def capture(self, client: int) -> Frame:
-        """Render and back-project one frame."""
+        """Render and back-project one frame (of the watched world's copy when ``client`` is it)."""
         w, h = self.width, self.height
+        twin = self.twin if self.twin is not None and self.twin.world == client else None
+        if twin is not None:
+            twin.sync()
         _, _, rgb, depth_buf, seg = pb.getCameraImage(
             w, h, self.view.T.ravel().tolist(), self.proj.T.ravel().tolist(), renderer=pb.ER_TINY_RENDERER,
-            lightDirection=(1.0, -0.6, 2.0), physicsClientId=client)
+            lightDirection=(1.0, -0.6, 2.0), physicsClientId=client if twin is None else twin.client)
         depth_buf = np.asarray(depth_buf, dtype=float).reshape(h, w)
         seg = np.asarray(seg, dtype=np.int64).reshape(h, w)
+        if twin is not None:
+            seg = twin.segments(seg)
         cam = corrupt(back_project(depth_buf, self.proj), self.noise, self.dropout, self.rng)
         seg = np.where(np.isnan(cam[..., 2]), -1, seg)
         rgb_img = np.asarray(rgb, dtype=np.uint8).reshape(h, w, 4)[:, :, :3]
         return Frame(to_world(cam, self.view), seg, rgb_img, -cam[..., 2])
+
+    def close(self) -> None:
+        if self.twin is not None:
+            self.twin.close()
+            self.twin = None
 
     def clouds(self, frame: Frame, uids: list[int]) -> list[np.ndarray]:
         """Each body's visible points (N_i x 3, world frame), from the segmentation alone."""

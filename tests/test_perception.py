@@ -237,6 +237,27 @@ def test_the_cell_sees_every_object_at_the_start(seeing):
         np.testing.assert_array_equal(scene.pairs(), scene.features[:, None, :3] - scene.features[None, :, :3])
 
 
+def test_the_render_copy_shows_every_object_as_the_world_itself_does():
+    """The camera renders a copy of the world whose arm looks like its collision meshes: every
+    object not in the hand gets exactly the points a render of the world itself gives, before and
+    after a grasp; the arm covers about as many pixels (its hull is a little larger)."""
+    with TowerSim(cubes=2, big=1, balls=1, cans=1, noise=0, features="pointcloud") as sim:
+        sim.reset(1)
+        direct = DepthCamera()
+        uids = [b.uid for b in sim.world.bodies]
+        for act in (None, Atom("closeHandAround", (sim.objects[0],))):
+            if act is not None:
+                sim.step(act)
+            seen, truth = sim.camera.capture(sim.world.client), direct.capture(sim.world.client)
+            held = sim.world.held
+            for k, (a, b) in enumerate(zip(sim.camera.clouds(seen, uids), direct.clouds(truth, uids))):
+                if k != held:
+                    np.testing.assert_array_equal(a, b)
+            arm = [(f.segment == sim.world.robot).sum() for f in (seen, truth)]
+            assert 0.9 < arm[0] / arm[1] < 1.15
+        assert held == 0
+
+
 def test_a_fully_occluded_object_is_unseen_and_keeps_its_last_features(seeing):
     """A plate between the camera and object k hides it; moving k behind the plate changes nothing
     of what is seen (its features are never read from the simulator), the others stay seen."""
