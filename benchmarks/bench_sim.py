@@ -2,9 +2,9 @@
 
 Runs random traces exactly as ``groundsym collect`` does and prints, from the same run: primitives
 per CPU second of the process (target: at least 10; CPU time, not wall time, so other jobs on a
-shared machine count less), physics steps per primitive, the world's raw stepping rate (the same
-world stepped with no controller) and the share of a primitive's time that is physics; a reset is
-timed apart. With ``--against DIR`` (a checkout of another commit, e.g. a ``git worktree``) the same
+shared machine count less), physics steps per primitive, how many of them one CPU second of
+stepping makes and the share of a primitive's time spent stepping the physics; a reset is timed
+apart. With ``--against DIR`` (a checkout of another commit, e.g. a ``git worktree``) the same
 measurement runs on that code too, alternating rounds so both see the same machine load, and the
 ratio is printed, with whether both produced the same traces (bit for bit: a speed change must not
 change results)::
@@ -36,13 +36,24 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
 
     steps = prims = 0
     busy = resets = 0.0
+    clock = [0.0]                      # CPU time inside the world's physics steps, running total
+    physics = 0.0                      # ... of it, during primitives
     digest = hashlib.sha256()
     with TowerSim() as sim:
+        world_step = sim.world.step
+
+        def timed_step(n: int = 1) -> None:
+            t = time.process_time()
+            world_step(n)
+            clock[0] += time.process_time() - t
+
+        sim.world.step = timed_step
         for reset_seed, rng in trace_seeds(0, traces):
             t0 = time.process_time()
             sim.reset(reset_seed)
             t1 = time.process_time()
             sim.world.steps = 0
+            before = clock[0]
             choices = sim.actions()
             scenes = [sim.step(choices[int(rng.integers(len(choices)))]) for _ in range(length)]
             busy += time.process_time() - t1
@@ -51,11 +62,8 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
             resets += t1 - t0
             steps += sim.world.steps
             prims += length
-        sim.reset(0)
-        t = time.process_time()
-        sim.world.step(600)
-        raw = 600 / (time.process_time() - t)
-    return {"prims": prims, "cpu": busy, "steps": steps, "raw": raw, "reset": resets / traces,
+            physics += clock[0] - before
+    return {"prims": prims, "cpu": busy, "steps": steps, "physics": physics, "reset": resets / traces,
             "traces": digest.hexdigest()}
 
 
@@ -74,12 +82,11 @@ def run_child(root: Path, traces: int, length: int) -> dict[str, float]:
 
 
 def summary(label: str, runs: list[dict[str, float]]) -> float:
-    prims, cpu, steps = (sum(r[k] for r in runs) for k in ("prims", "cpu", "steps"))
-    raw = sum(r["raw"] for r in runs) / len(runs)
+    prims, cpu, steps, physics = (sum(r[k] for r in runs) for k in ("prims", "cpu", "steps", "physics"))
     rate = prims / cpu
     print(f"{label}: {int(prims)} random primitives in {cpu:.2f} CPU s -> {rate:.1f} primitives per CPU s "
           f"({rate / TARGET:.2f}x the target of {TARGET:g}); {steps / prims:.0f} physics steps per primitive, "
-          f"raw stepping {raw:.0f} steps per CPU s (physics {steps / raw / cpu:.0%} of a primitive's time), "
+          f"{steps / physics:.0f} steps per CPU s of stepping (physics {physics / cpu:.0%} of a primitive's time), "
           f"reset {sum(r['reset'] for r in runs) / len(runs) * 1000:.0f} ms")
     return rate
 

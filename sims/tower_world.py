@@ -8,8 +8,10 @@ a grasp is stabilised by a fixed constraint once both fingers touch the object, 
 removing it, so what is let go falls as physics dictates.
 
 Speed comes from few physics steps, not from skipping physics: a 1/120 s step with 4 sub-steps
-(the cubes stack stably), fast joint motors, loose convergence tests on coarse waypoints and an
-early exit as soon as the world has settled. See ``benchmarks/bench_sim.py``.
+(the cubes stack stably), fast joint motors, an early exit as soon as the world has settled, and
+objects that sleep once they have rested for 2 s (Bullet's deactivation: a sleeping object is not
+integrated, and wakes the moment anything awake touches it or what it rests on). See
+``benchmarks/bench_sim.py``.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ ARRIVE_STEPS = 60                  # at most this many steps to arrive after the
 SETTLE_LIN = 0.01                  # m/s: the world is settled below these speeds
 SETTLE_ANG = 0.1                   # rad/s
 SETTLE_STEPS = 240                 # 2 s: a primitive reads the scene after this at the latest
+SLEEP_MOTION = SETTLE_LIN ** 2     # (m/s)^2: an object with v^2 + w^2 below this for 2 s goes to sleep
 
 Guard = Callable[[], "str | None"]
 
@@ -161,7 +164,8 @@ class TowerWorld:
         orn = pb.getQuaternionFromEuler((0, 0, yaw))
         uid = pb.createMultiBody(mass, col, vis, (x, y, half), orn, physicsClientId=c)
         pb.changeDynamics(uid, -1, lateralFriction=0.7, rollingFriction=0.0005 if shape == "ball" else 0.0,
-                          spinningFriction=0.001, physicsClientId=c)
+                          spinningFriction=0.001, activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
+                          sleepThreshold=SLEEP_MOTION, physicsClientId=c)
         return Body(uid, shape, size)
 
     def close(self) -> None:
