@@ -215,19 +215,39 @@ def _fit_stats(pred: np.ndarray, y: np.ndarray, base: float) -> dict[str, float]
     return {"n": int(len(y)), "rmse": rmse, "baseline_rmse": brmse, "r2": r2}
 
 
-def fit_reward(ds, *, seed: int = 0, holdout: float = 0.2, max_size: int = 2, chain: int = 3) -> RewardModel:
+def fit_reward(ds, *, seed: int = 0, holdout: float = 0.2, max_size: int = 2, chain: int = 3,
+               tie_chains: bool = True) -> RewardModel:
     """Fit the reward model of a symbolic dataset; report held-out fit on ``holdout`` of the traces.
-    ``chain``: the longest chain feature ``(p ?a ?b) (p ?b ?c) ...`` over each binary predicate."""
+    ``chain``: the longest chain feature ``(p ?a ?b) (p ?b ?c) ...`` over each binary predicate.
+
+    ``tie_chains``: each binary predicate also gets one *path* column, the sum of its chains of 1 to
+    ``chain`` atoms (pairs in a ``p``-path: for ``on``, cube pairs one above the other), fitted with
+    one weight that the model then gives each of those chains. A column the data cannot tell from a
+    path column (random traces without towers of three: pairs only) is left out, so the path column
+    takes its weight, and a chain the data never showed is valued as the data's pattern continued
+    (the tower's reward, a mean height, is linear in such pairs) instead of 0."""
     rng = np.random.default_rng(seed)
     preds = dict(sorted(ds.predicates.items()))
     feats = candidate_features(preds, max_size, chain)
     X, y, groups = dataset_matrix(ds, feats)
     if len(y) == 0:
         return RewardModel((), (), 0.0, tuple(preds.items()), {"note": "no rewarded states"})
-    varying = X.std(axis=0) > 1e-12 if len(y) > 1 else np.zeros(len(feats), dtype=bool)
-    feats = [f for f, v in zip(feats, varying) if v]
-    X = X[:, varying]
-    report: dict[str, Any] = {"features_considered": len(varying), "features_used": len(feats)}
+    members: list[tuple[int, ...]] = [(k,) for k in range(len(feats))]     # the features a column stands for
+    if tie_chains:
+        for p in (p for p, k in preds.items() if k == 2):
+            path = tuple(k for k, f in enumerate(feats) if _is_chain(f, p))
+            if len(path) > 1:
+                members.append(path)
+                X = np.hstack([X, X[:, list(path)].sum(axis=1, keepdims=True)])
+    varying = X.std(axis=0) > 1e-12 if len(y) > 1 else np.zeros(X.shape[1], dtype=bool)
+    for j in range(len(feats), X.shape[1]):            # a path column replaces columns equal to it
+        if varying[j]:
+            same = np.abs(X[:, :len(feats)] - X[:, j:j + 1]).max(axis=0) <= 1e-12
+            varying[:len(feats)] &= ~same
+    cols = np.flatnonzero(varying)
+    X = X[:, cols]
+    report: dict[str, Any] = {"features_considered": len(feats), "features_used": len(cols),
+                              "path_columns": int(sum(len(members[j]) > 1 for j in cols))}
     if np.ptp(y) < 1e-12:
         report["note"] = "constant reward"
         return RewardModel((), (), float(y.mean()), tuple(preds.items()), report)
@@ -240,9 +260,18 @@ def fit_reward(ds, *, seed: int = 0, holdout: float = 0.2, max_size: int = 2, ch
     w, b = _ridge(X, y, lam)
     report["train"] = _fit_stats(X @ w + b, y, float(y.mean()))
     report["ridge_lambda"] = lam
-    keep = np.abs(w) > 1e-12
-    return RewardModel(tuple(f for f, k in zip(feats, keep) if k), tuple(float(x) for x in w[keep]), b,
+    weight = np.zeros(len(feats))
+    for j, wj in zip(cols, w):
+        weight[list(members[j])] += wj
+    keep = np.abs(weight) > 1e-12
+    return RewardModel(tuple(f for f, k in zip(feats, keep) if k), tuple(float(x) for x in weight[keep]), b,
                        tuple(preds.items()), report)
+
+
+def _is_chain(f: Feature, p: str) -> bool:
+    """``f`` is a chain ``(p ?a ?b) (p ?b ?c) ...`` of one or more atoms of ``p``."""
+    return all(a.predicate == p and a.arity == 2 for a in f.atoms) and \
+        all(x.args[1] == y.args[0] for x, y in zip(f.atoms, f.atoms[1:])) and len(set(f.variables)) == len(f.atoms) + 1
 
 
 def write_reward(path: str | Path, model: RewardModel, provenance: Mapping[str, Any] | None = None) -> None:

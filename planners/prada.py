@@ -16,7 +16,7 @@ at horizon 4 with 500 samples take milliseconds rather than seconds.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from itertools import permutations, product
 from typing import Any, Callable, Mapping, Sequence
@@ -24,6 +24,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from groundsym.logic import Atom, Literal, is_variable
+from groundsym.rules.model import with_derived
 from groundsym.planner import (Decision, Goal, Observation, PlannerOption, PlanningModel,
                                parse_planner_options, positive, unit_interval)
 
@@ -54,6 +55,8 @@ class Grounding:
     set_true: Any                      # (R, V+1) probability the rule makes the atom true (CSR)
     touched: Any                       # (R, V+1) probability the rule sets the atom at all (CSR)
     source: tuple[tuple[Any, dict], ...]   # (abstract rule, binding) of each ground rule
+    derived_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (D,) derived atoms
+    derived_of: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))   # (V+1, D) 1: base atom denies it
 
     @property
     def n_vars(self) -> int:
@@ -68,6 +71,15 @@ class Grounding:
                 b[i] = 1.0
         b[-1] = 1.0
         return b
+
+    def derive(self, B: np.ndarray) -> np.ndarray:
+        """``B`` (changed in place) with its derived atoms recomputed from their base atoms:
+        ``P(no-on-1(x)) = prod_y (1 - P(on(x, y)))``, the factored frontier's independence
+        (libPRADA computes its derived predicates the same way)."""
+        if not len(self.derived_cols):
+            return B
+        B[:, self.derived_cols] = np.exp(np.log(np.maximum(1.0 - B, 1e-300)) @ self.derived_of)
+        return B
 
     def marginals(self, row: np.ndarray) -> dict[Atom, float]:
         return {a: float(row[i]) for i, a in enumerate(self.atoms)}
@@ -146,8 +158,24 @@ def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, in
     ctx[~keep] = V           # a rule that can never fire gets context "false" via its sign
     sign[~keep, 0] = False
     starts = np.searchsorted(group, np.arange(len(actions))) if R else np.zeros(0, dtype=np.int64)
+    dcols, dof = _derived_tables(getattr(rules, "derived", ()), atoms, index)
     return Grounding(tuple(objects), atoms, index, actions, starts, group, ctx, sign, manip,
-                     set_true, touched, tuple((r[1], r[2]) for r in rows))
+                     set_true, touched, tuple((r[1], r[2]) for r in rows), dcols, dof)
+
+
+def _derived_tables(derived: Sequence[Any], atoms: Sequence[Atom], index: Mapping[Atom, int]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The columns of the derived atoms and, per derived atom, the base atoms that deny it."""
+    by_name = {d.name: d for d in derived}
+    cols = [i for i, a in enumerate(atoms) if a.predicate in by_name]
+    dof = np.zeros((len(atoms) + 1, len(cols)))
+    for j, i in enumerate(cols):
+        d = by_name[atoms[i].predicate]
+        for b, a in enumerate(atoms):
+            if a.predicate == d.base and a.arity == d.base_arity and \
+                    tuple(a.args[k] for k in d.keep) == atoms[i].args:
+                dof[b, j] = 1.0
+    return np.array(cols, dtype=np.int64), dof
 
 
 def _ground_atoms(objects: Sequence[str], predicates: Mapping[str, int], rules: Any) -> tuple[Atom, ...]:
@@ -224,10 +252,10 @@ def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray) -
     else:
         off, on = (touched.T @ Usel.T).T, (set_true.T @ Usel.T).T
     if cols is None:
-        return B * (1.0 - off) + on
+        return g.derive(B * (1.0 - off) + on)
     out = B.copy()
     out[:, cols] = B[:, cols] * (1.0 - off) + on
-    return out
+    return g.derive(out)
 
 
 # ----------------------------------------------------------------------------- rewards
@@ -398,6 +426,8 @@ class PradaCore:
         self.discounts = gamma ** np.arange(horizon + 1)
         self.restricted = restricted
         self._static = np.asarray(g.touched.getnnz(axis=0) == 0) if not restricted else None
+        if self._static is not None:
+            self._static[g.derived_cols] = False       # derived atoms change with their base atoms
         self._subs: dict[bytes, PradaCore] = {}
 
     def restrict(self, b0: np.ndarray) -> "PradaCore":
@@ -420,15 +450,20 @@ class PradaCore:
                                         self.max_runs)
         return self._subs[key]
 
-    def sample(self, b0: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """N sequences of ground-action indices (-1 after a sequence ends) and their values."""
+    def sample(self, b0: np.ndarray, rng: np.random.Generator, banned: Sequence[Atom] = ()
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """N sequences of ground-action indices (-1 after a sequence ends) and their values;
+        no sequence starts with an action in ``banned``."""
         g, N, T = self.g, self.samples, self.horizon
         B = np.repeat(b0[None, :], N, axis=0)
         seqs = np.full((N, T), -1, dtype=np.int64)
         value = self.reward(B) * self.discounts[0]
+        ban = [i for i, a in enumerate(g.actions) if a in set(banned)]
         for t in range(T):
             U = rule_probabilities(g, B, self.min_prob)
             W = action_weights(g, U)
+            if t == 0 and ban:
+                W[:, ban] = 0.0
             chosen = _sample_rows(W, rng)
             seqs[:, t] = chosen
             B = transition(g, B, U, chosen)
@@ -480,13 +515,13 @@ class PradaCore:
                 t += 1
         return seq, value
 
-    def plan(self, b0: np.ndarray, rng: np.random.Generator, shorten: bool) -> Plan:
+    def plan(self, b0: np.ndarray, rng: np.random.Generator, shorten: bool, banned: Sequence[Atom] = ()) -> Plan:
         core = self.restrict(b0)
         if core is not self:
-            return core.plan(b0, rng, shorten)
+            return core.plan(b0, rng, shorten, banned)
         noop = float(self.evaluate(b0, np.full((1, self.horizon), -1))[0])
         for _ in range(self.max_runs):      # libPRADA: sample again while no sequence beats doing
-            seqs, values = self.sample(b0, rng)     # nothing by the threshold ("no sensible action")
+            seqs, values = self.sample(b0, rng, banned)   # nothing by the threshold ("no sensible action")
             row = self.best(seqs, values, rng)
             if float(values[row]) > noop + self.threshold:
                 break
@@ -544,6 +579,13 @@ def nonnegative(text: str) -> float:
     return value
 
 
+def _retries(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise ValueError("expected an integer >= 0")
+    return value
+
+
 def _choice(text: str) -> str:
     if text not in ("max", "top10"):
         raise ValueError("expected max or top10")
@@ -571,6 +613,9 @@ class PradaPlanner:
                       "sequence does not beat doing nothing by this much, sample again (max_runs times)"),
         PlannerOption("max_runs", positive(int, most=100), 1, "sampling rounds per decision while the "
                       "threshold is not met (then the best sequence found is run anyway)"),
+        PlannerOption("retries", _retries, None, "a primitive that left the abstract state unchanged is "
+                      "tried again in that same state at most this many times (then only other first "
+                      "actions are sampled until the state changes); default: no limit, as libPRADA"),
         PlannerOption("goal_share", nonnegative, 0.0, "a PPDDL goal scores the probability that all its "
                       "literals hold plus this weight times the expected share of them that hold"),
     )
@@ -580,6 +625,8 @@ class PradaPlanner:
         self.model = model
         self.rng = np.random.default_rng(seed)
         self._cores: dict[tuple[str, ...], PradaCore] = {}
+        self._last: tuple[frozenset, Atom] | None = None
+        self._unchanged: dict[tuple[frozenset, Atom], int] = {}    # (state, action) -> times it changed nothing
 
     def _predicates(self, state: frozenset) -> dict[str, int]:
         preds: dict[str, int] = dict(self.model.predicates or {})
@@ -608,13 +655,14 @@ class PradaPlanner:
     def choose(self, observation: Observation) -> Decision:
         state = observation.state if observation.state is not None else frozenset()
         core = self.core(observation.objects, state)
-        b0 = core.g.belief(state)
+        b0 = core.g.belief(with_derived(state, getattr(self.model.rules, "derived", ()), observation.objects))
         shorten = self.opts["variant"] == "a-prada"
-        plan = core.plan(b0, self.rng, shorten)
+        banned = self._banned(state, observation.t)
+        plan = core.plan(b0, self.rng, shorten, banned)
         for _ in range(2 if shorten else 0):    # A-PRADA plan_full: first action must be covered
             if plan.actions and self._covered(state, plan.actions[0], observation.objects):
                 break
-            plan = core.plan(b0, self.rng, shorten)
+            plan = core.plan(b0, self.rng, shorten, banned)
         legal = set(observation.actions) if observation.actions else None
         if plan.actions and (legal is None or plan.actions[0] in legal):
             action = plan.actions[0]
@@ -622,7 +670,22 @@ class PradaPlanner:
             action = observation.actions[int(self.rng.integers(len(observation.actions)))]
         info = {"plan": [str(a) for a in plan.actions], "noop_value": plan.noop_value,
                 "variant": self.opts["variant"]}
+        if banned:
+            info["banned"] = [str(a) for a in banned]
+        self._last = (state, action)
         return Decision(action, plan.value, info)
+
+    def _banned(self, state: frozenset, t: int) -> list[Atom]:
+        """The actions ``retries`` rules out now: each left this very state unchanged more than
+        ``retries`` times in this episode (counted from the previous decision's outcome)."""
+        limit = self.opts["retries"]
+        if limit is None:
+            return []
+        if t == 0:
+            self._unchanged.clear()
+        elif self._last is not None and self._last[0] == state:
+            self._unchanged[self._last] = self._unchanged.get(self._last, 0) + 1
+        return sorted(a for (s, a), n in self._unchanged.items() if s == state and n > limit)
 
     def _covered(self, state: frozenset, action: Atom, objects: Sequence[str]) -> bool:
         rule, _ = self.model.rules.covering(state, action, objects)

@@ -279,6 +279,77 @@ def test_threshold_samples_again_until_a_sequence_beats_doing_nothing():
         core = planner.core(("a", "b", "c"), on_table(("a", "b", "c")))
         calls = []
         sample = core.sample
-        core.sample = lambda b0, rng: calls.append(1) or sample(b0, rng)
+        core.sample = lambda b0, rng, banned=(): calls.append(1) or sample(b0, rng, banned)
         planner.choose(env.reset(0))
         assert len(calls) == rounds
+
+
+def test_derived_atoms_follow_their_base_atoms_through_inference():
+    """The tower over inhand/on with derived predicates (tests/data): from point-mass states the
+    successor marginals are exact, derived atoms included (computed from the exact successors);
+    from a mixed belief a derived atom is the product of its base atoms' complements."""
+    from conftest import DATA
+    from groundsym.rules.io import read_rules
+    from groundsym.rules.model import with_derived
+
+    rules, meta = read_rules(DATA / "nid_tower_derived.rules.json")
+    objects = ("a", "b", "c", "d")
+    g = ground_rules(rules, objects, meta["predicates"])
+    assert {a.predicate for a in (g.atoms[i] for i in g.derived_cols)} == {"no-inhand", "no-on-1", "no-on-2"}
+    rng = np.random.default_rng(3)
+    acts = ground_actions(meta["primitives"], objects)
+    for _ in range(15):
+        s = frozenset()
+        for _ in range(int(rng.integers(0, 10))):
+            s = sample_successor(rules, s, acts[int(rng.integers(len(acts)))], rng, objects)
+        b = g.belief(with_derived(s, rules.derived, objects))[None]
+        U = rule_probabilities(g, b)
+        for a in acts:
+            got = transition(g, b, U, np.array([g.actions.index(a)]))[0, :-1]
+            r, bind = rules.covering(s, a, objects)
+            dist = [(s, 1.0)] if r is None else [(o.apply(s, bind), p) for o, p in zip(r.outcomes, r.probs)]
+            want = [sum(p for s2, p in dist if atom in with_derived(s2, rules.derived, objects)) for atom in g.atoms]
+            np.testing.assert_allclose(got, want, atol=1e-12)
+    b = g.belief(frozenset())
+    b[g.index[A("(on a b)")]], b[g.index[A("(on a c)")]], b[g.index[A("(inhand d)")]] = 0.6, 0.5, 0.3
+    out = g.derive(b[None].copy())[0]
+    assert out[g.index[A("(no-on-1 a)")]] == pytest.approx(0.4 * 0.5)
+    assert out[g.index[A("(no-on-2 b)")]] == pytest.approx(0.4)
+    assert out[g.index[A("(no-inhand)")]] == pytest.approx(0.7)
+    assert out[g.index[A("(no-on-1 b)")]] == 1.0 and out[-1] == 1.0
+
+
+def test_prada_grasps_the_free_cube_not_the_top_of_its_tower():
+    """With the grasp rule that lifts a cube off the one below (a derived context), lifting the top
+    of a tower of two loses its ``on`` pair in PRADA's model, so with a reward that counts ``on``
+    pairs PRADA grasps the free cube (to stack it) instead, whatever the seed."""
+    from conftest import DATA
+    from groundsym.rules.io import read_rules
+
+    rules, meta = read_rules(DATA / "nid_tower_derived.rules.json")
+    model = PlanningModel(meta["primitives"], predicates=meta["predicates"], rules=rules, reward=Linear(), gamma=0.8)
+    objects = ("a", "b", "c")
+    obs = Observation(objects, tuple(ground_actions(meta["primitives"], objects)), frozenset({A("(on a b)")}))
+    for seed in range(5):
+        d = PradaPlanner(model, {}, seed).choose(obs)
+        assert d.action == A("(closeHandAround c)"), d
+
+
+def test_retries_bans_a_first_action_that_keeps_changing_nothing_in_the_same_state():
+    """retries=1: after the chosen grasp left the state unchanged twice, the next decision in that
+    state starts with another action; a new episode (t = 0) forgets."""
+    from conftest import DATA
+    from groundsym.rules.io import read_rules
+
+    rules, meta = read_rules(DATA / "nid_tower_derived.rules.json")
+    model = PlanningModel(meta["primitives"], predicates=meta["predicates"], rules=rules, reward=Linear(), gamma=0.8)
+    objects = ("a", "b", "c")
+    acts = tuple(ground_actions(meta["primitives"], objects))
+    s = frozenset({A("(on a b)")})
+    planner = PradaPlanner(model, {"retries": "1"}, 0)
+    chosen = [planner.choose(Observation(objects, acts, s, None, t)) for t in range(4)]
+    assert [d.action for d in chosen[:2]] == [A("(closeHandAround c)")] * 2
+    assert all(d.action != A("(closeHandAround c)") and d.info["banned"] == ["(closeHandAround c)"]
+               for d in chosen[2:])
+    assert planner.choose(Observation(objects, acts, s, None, 0)).action == A("(closeHandAround c)")
+    assert PradaPlanner(model, {}, 0).opts["retries"] is None

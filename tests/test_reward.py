@@ -115,3 +115,40 @@ def test_bad_reward_files_name_the_field():
         with pytest.raises(UserError) as exc:
             doc_to_reward(doc, "m/reward.json")
         assert str(exc.value).startswith(f"m/reward.json: {want}:")
+
+
+def above_pairs(s: frozenset) -> int:
+    """Pairs (x, y) with x somewhere above y in its tower: the tower reward's shape."""
+    below = {a.args[0]: a.args[1] for a in s if a.predicate == "on"}
+    n = 0
+    for x in below:
+        y = x
+        while y in below:
+            y, n = below[y], n + 1
+    return n
+
+
+def test_tied_chains_value_taller_towers_the_data_never_showed():
+    """Reward 0.01 per above-pair; training towers hold at most two cubes, so chains of two and
+    three never occur. The path column (pairs + chains, one weight) predicts towers of three and
+    four exactly; without tying a chain is worth nothing and a tower of four is undervalued."""
+    rng = np.random.default_rng(0)
+    objs = tuple(f"c{i}" for i in range(6))
+    traces = []
+    for _ in range(8):
+        states = []
+        for _ in range(10):
+            perm = rng.permutation(objs)
+            k = int(rng.integers(0, 4))              # k towers of two
+            s = frozenset(Atom("on", (perm[2 * i], perm[2 * i + 1])) for i in range(k))
+            states.append(s)
+        traces.append(SymbolicTrace(objs, states, [Atom("noop", ())] * 9, [0.01 * above_pairs(s) for s in states[:-1]]))
+    ds = SymbolicDataset(traces, {"on": 2}, {"noop": 0})
+    tall = [frozenset({Atom("on", ("c0", "c1")), Atom("on", ("c1", "c2"))}),
+            frozenset({Atom("on", ("c0", "c1")), Atom("on", ("c1", "c2")), Atom("on", ("c2", "c3"))})]
+    tied = fit_reward(ds, seed=0)
+    plain = fit_reward(ds, seed=0, tie_chains=False)
+    for s in tall:
+        assert tied.predict(s, objs) == pytest.approx(0.01 * above_pairs(s), abs=2e-4)
+        assert plain.predict(s, objs) < 0.01 * above_pairs(s) - 0.005
+    assert tied.fit["path_columns"] == 1

@@ -17,6 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from ..logic import Atom, Literal, is_variable
+from .model import Derived, with_derived
 
 
 @dataclass(frozen=True)
@@ -60,14 +61,22 @@ class Coverage:
 
 
 class ExampleTable:
-    """The examples of one action as boolean tensors, for vectorised coverage and outcome checks."""
+    """The examples of one action as boolean tensors, for vectorised coverage and outcome checks.
 
-    def __init__(self, examples: Sequence[Example], predicates: dict[str, int]):
+    ``derived`` predicates (:class:`~groundsym.rules.model.Derived`) get tensors computed from
+    their base predicates' and are in ``predicates`` (contexts may use them); the examples' states
+    and changes hold the base atoms only."""
+
+    def __init__(self, examples: Sequence[Example], predicates: dict[str, int],
+                 derived: Sequence[Derived] = ()):
         self.examples = list(examples)
         self.predicates = dict(predicates)
         for e in self.examples:          # predicates the data uses but the caller did not declare
             for a in e.state | e.succ:
                 self.predicates.setdefault(a.predicate, a.arity)
+        self.derived = tuple(d for d in derived if d.base in self.predicates and d.name not in self.predicates)
+        for d in self.derived:
+            self.predicates[d.name] = d.arity
         n = len(self.examples)
         self.M = max((len(e.objects) for e in self.examples), default=1) or 1
         self.weights = np.array([e.weight for e in self.examples], dtype=float)
@@ -78,6 +87,9 @@ class ExampleTable:
             self.valid[i, :len(e.objects)] = True
         self.before = self._tensors([e.state for e in self.examples])
         self.after = self._tensors([e.succ for e in self.examples])
+        for tens in (self.before, self.after):
+            for d in self.derived:
+                tens[d.name] = self._derived_tensor(d, tens[d.base])
         arity = max((e.action.arity for e in self.examples), default=0)
         self.args = np.zeros((n, arity), dtype=int)
         self.distinct_args = np.ones(n, dtype=bool)
@@ -99,6 +111,22 @@ class ExampleTable:
             for a in s:
                 out[a.predicate][(i, *(pos[x] for x in a.args))] = True
         return out
+
+    def _derived_tensor(self, d: Derived, base: np.ndarray) -> np.ndarray:
+        """``d`` for every example and argument tuple: no base atom with these arguments at ``d.keep``."""
+        if d.arity > 1:
+            raise ValueError(f"derived predicates of arity {d.arity} are not supported: {d.name}")
+        other = tuple(1 + i for i in range(d.base_arity) if i not in d.keep)
+        order = (0, *(1 + i for i in d.keep), *other)
+        none = ~np.transpose(base, order).reshape(base.shape[:1 + d.arity] + (-1,)).any(axis=-1)
+        for j in range(d.arity):            # padding objects are no objects
+            none &= self.valid.reshape((len(self.valid),) + (1,) * j + (self.M,) + (1,) * (d.arity - 1 - j))
+        return none
+
+    def full_state(self, i: int) -> frozenset:
+        """Example ``i``'s state with its derived atoms."""
+        e = self.examples[i]
+        return with_derived(e.state, self.derived, e.objects)
 
     def deictic_tuples(self, m: int, injective: bool = True) -> np.ndarray:
         """All ordered m-tuples of object indices (T x m), distinct ones only when injective."""

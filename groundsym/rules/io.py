@@ -15,7 +15,7 @@ from typing import Any, Mapping
 from ..errors import UserError
 from ..fileio import atomic_write_json, atomic_write_text, read_json
 from ..logic import Atom, Literal, is_variable, parse_atom, parse_literal
-from .model import DefaultRule, Outcome, Rule, RuleSet
+from .model import DefaultRule, Derived, Outcome, Rule, RuleSet
 
 SCHEMA = "groundsym.rules/1"
 SUM_TOL = 1e-6
@@ -36,6 +36,9 @@ def rules_to_doc(rs: RuleSet, *, predicates: Mapping[str, int] | None = None,
     doc["p_min"] = rs.p_min
     doc["p_min_default"] = rs.p_min_default
     doc["injective"] = rs.injective
+    if rs.derived:
+        doc["derived"] = [{"name": d.name, "base": d.base, "base_arity": d.base_arity, "keep": list(d.keep)}
+                          for d in rs.derived]
     if options:
         doc["options"] = dict(options)
     doc["defaults"] = [{"action": a, "p_noise": d.p_noise} for a, d in rs.defaults]
@@ -115,6 +118,9 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     p_min = f.prob(f.get(doc, "p_min", "", (int, float)), "p_min")
     p_min_def = f.prob(f.get(doc, "p_min_default", "", (int, float)), "p_min_default")
     injective = f.get(doc, "injective", "", bool, True)
+    derived = tuple(_derived(f, d, f"derived[{i}]", preds) for i, d in enumerate(f.get(doc, "derived", "", list, [])))
+    if preds is not None:
+        preds = {**preds, **{d.name: d.arity for d in derived}}
     defaults = []
     for i, d in enumerate(f.get(doc, "defaults", "", list)):
         name = f.get(d, "action", f"defaults[{i}]", str)
@@ -123,7 +129,21 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     rules = tuple(_rule(f, rd, f"rules[{i}]", preds, prims) for i, rd in enumerate(f.get(doc, "rules", "", list)))
     meta = {k: v for k, v in doc.items() if k not in ("schema", "rules", "defaults")}
     meta["covers"] = [rd.get("covers") for rd in doc["rules"]]
-    return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective), meta
+    return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective, derived), meta
+
+
+def _derived(f: _Fields, d: Any, field: str, preds: Mapping[str, int] | None) -> Derived:
+    name = f.get(d, "name", field, str)
+    base = f.get(d, "base", field, str)
+    arity = f.get(d, "base_arity", field, int)
+    keep = f.get(d, "keep", field, list)
+    if preds is not None and preds.get(base) != arity:
+        raise f.fail(f"{field}.base", f"{base!r} is not a declared predicate of arity {arity}")
+    if preds is not None and name in preds:
+        raise f.fail(f"{field}.name", f"{name!r} is a declared predicate")
+    if len(keep) > 1 or not all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < arity for k in keep):
+        raise f.fail(f"{field}.keep", f"expected at most one argument position in [0, {arity}), got {keep!r}")
+    return Derived(name, base, arity, tuple(keep))
 
 
 def _arities(f: _Fields, doc: dict, key: str) -> dict[str, int] | None:
@@ -179,6 +199,14 @@ def rules_to_text(rs: RuleSet, covers: Mapping[int, int] | None = None, title: s
     """Readable rules: one block per rule (action, context, outcomes with probabilities, noise)."""
     lines = [f"# {title or 'NID rules'}: {len(rs.rules)} rules; p_min {rs.p_min:g}, "
              f"default rule p_min {rs.p_min_default:g}", ""]
+    for d in rs.derived:
+        held = ", ".join(["?x"] if d.keep else [])
+        args = ["_"] * d.base_arity
+        for k in d.keep:
+            args[k] = "?x"
+        lines.append(f"derived: ({d.name}{' ' + held if held else ''}) holds when no ({d.base} {' '.join(args)}) does")
+    if rs.derived:
+        lines.append("")
     for i, r in enumerate(rs.rules):
         cov = f"    ({covers.get(i, 0)} training transitions)" if covers is not None else ""
         lines.append(f"rule {i + 1}: {r.action}{cov}")

@@ -30,7 +30,7 @@ import numpy as np
 from ..logic import Atom, Literal, is_variable
 from ..progress import Progress
 from .coverage import Coverage, Example, ExampleTable
-from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Outcome, Rule, RuleSet
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Derived, Outcome, Rule, RuleSet
 from .outcomes import OutcomeFit, induce_outcomes
 
 ALPHA = 0.5
@@ -52,6 +52,7 @@ class LearnOptions:
     nochange_prior: float = 0.5  # pseudo-count of "no change" in the final outcome probabilities
     drop_order: str = "general"  # trimming tries the most general literals first ("sorted": by name)
     complete: bool = True        # add the positive literals the data say the action needs (_complete)
+    derived: bool = True         # contexts may use "no p(x, _)" predicates (Derived.for_predicates)
 
 
 @dataclass(frozen=True)
@@ -101,14 +102,18 @@ def learn_rules(examples: Sequence[Example], predicates: dict[str, int], options
     """Learn one rule set (with one default rule per action name) from weighted examples."""
     rng = np.random.default_rng(seed)
     by_action: dict[tuple[str, int], list[Example]] = {}
+    used = dict(predicates)
     for e in examples:
         by_action.setdefault((e.action.predicate, e.action.arity), []).append(e)
+        for a in e.state | e.succ:
+            used.setdefault(a.predicate, a.arity)
+    derived = Derived.for_predicates(used) if options.derived else ()
     rules: list[Rule] = []
     defaults: list[tuple[str, DefaultRule]] = []
     report = LearnReport()
     bar = Progress(len(by_action), "learning rules", enabled=progress)
     for k, (name, arity) in enumerate(sorted(by_action)):
-        learner = ActionLearner(ExampleTable(by_action[(name, arity)], predicates), name, arity, options,
+        learner = ActionLearner(ExampleTable(by_action[(name, arity)], predicates, derived), name, arity, options,
                                 np.random.default_rng(rng.integers(2**63)))
         fits, default, stats = learner.learn(
             lambda r, n, sc, name=name, k=k: bar.update(k, f"{name}: round {r}, {n} rules, score {sc:.2f}"))
@@ -117,7 +122,9 @@ def learn_rules(examples: Sequence[Example], predicates: dict[str, int], options
         report.per_action[name] = stats
         bar.update(k + 1, f"{name}: {len(fits)} rules, score {stats['score']:.2f}")
     bar.close()
-    rs = RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, options.injective)
+    named = {l.atom.predicate for r in rules for l in r.context}
+    rs = RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, options.injective,
+                 tuple(d for d in derived if d.name in named))
     return rs, report
 
 
@@ -235,6 +242,8 @@ class ActionLearner:
             if not improved:
                 break
         d, _ = self.default(R)
+        if self.table.derived:
+            R = tuple(self._prefer_declared(f) for f in R)
         if self.opts.complete:
             R = tuple(self._complete(f) for f in R)
             best = self.score(R)        # same likelihood, the added literals' penalty
@@ -249,7 +258,7 @@ class ActionLearner:
         needs: it holds in every training example the rule covers (so coverage and fit stay), and
         in every training example of the action where it is false, nothing changed."""
         ctx = set(f.rule.context)
-        for a in _atoms_over(self.action.args, self.table.predicates, self.opts.injective):
+        for a in _atoms_over(self.action.args, self._declared, self.opts.injective):
             lit = Literal(a, True)
             if Literal(a, False) in ctx or lit in ctx or not self._needed(a):
                 continue
@@ -257,6 +266,32 @@ class ActionLearner:
             if g is not None and g.covered == f.covered:
                 ctx.add(lit)
         return self.fit(ctx) if ctx != set(f.rule.context) else f
+
+    def _prefer_declared(self, f: RuleFit) -> RuleFit:
+        """``f`` with each derived literal replaced by a literal over the data's own predicates that
+        covers the same training examples, where there is one (same fit, same score): in the blocks
+        world ``(no-on-1 ?x)`` next to ``(clear ?x) (handempty)`` is ``(ontable ?x)``, and the data's
+        vocabulary is what a reader (and a PPDDL export) expects."""
+        derived = {d.name for d in self.table.derived}
+        ctx = set(f.rule.context)
+        for lit in sorted(l for l in f.rule.context if l.atom.predicate in derived):
+            present = {l.atom for l in ctx}
+            swaps = [Literal(a, sign) for sign in (lit.positive, not lit.positive)
+                     for a in _atoms_over(f.rule.variables, self._declared, self.opts.injective) if a not in present]
+            for new in swaps:
+                c = (ctx - {lit}) | {new}
+                g = self.fit(c)
+                if g is not None and g.covered == f.covered:
+                    ctx = c
+                    break
+        return self.fit(ctx) if ctx != set(f.rule.context) else f
+
+    @property
+    def _declared(self) -> dict[str, int]:
+        """The data's own predicates (completion adds literals over these only: a derived literal
+        it needs is implied by declared ones or was chosen by the search)."""
+        names = {d.name for d in self.table.derived}
+        return {p: k for p, k in self.table.predicates.items() if p not in names}
 
     def _needed(self, atom: Atom) -> bool:
         """The action was tried with ``atom`` false, and never changed anything then."""
@@ -292,16 +327,17 @@ class ActionLearner:
         ex = self.table.examples[i]
         if self.opts.injective and len(set(ex.action.args)) != len(ex.action.args):
             return None
+        state = self.table.full_state(i)
         sigma = dict(zip(ex.action.args, self.action.args))       # object -> variable
-        ctx = set(_lift_atoms(ex.state, sigma, positive=True))
-        ctx |= set(_absent_literals(ex.state, sigma, self.table.predicates, self.opts.injective))
+        ctx = set(_lift_atoms(state, sigma, positive=True))
+        ctx |= set(_absent_literals(state, sigma, self.table.predicates, self.opts.injective))
         changed_objs = sorted({x for a in ex.adds | ex.dels for x in a.args} - set(sigma))
         for c in changed_objs:
             if len(sigma) - len(self.action.args) >= self.opts.max_deictic:
                 return None
             trial = dict(sigma, **{c: f"?y{len(sigma) - len(self.action.args) + 1}"})
-            lits = [l for l in _lift_atoms(ex.state, trial, positive=True) if trial[c] in l.atom.args]
-            if lits and _unique(ex, self.action, ctx | set(lits), self.opts.injective):
+            lits = [l for l in _lift_atoms(state, trial, positive=True) if trial[c] in l.atom.args]
+            if lits and _unique(state, ex, self.action, ctx | set(lits), self.opts.injective):
                 sigma, ctx = trial, ctx | set(lits)
             else:
                 return None
@@ -352,7 +388,8 @@ class ActionLearner:
         group, what an operator's precondition is (docs/rules.md)."""
         if self.opts.drop_order == "sorted":
             return sorted(ctx)
-        return sorted(ctx, key=lambda l: (-self._generality(l), l))
+        derived = {d.name for d in self.table.derived}     # on a tie the derived literal goes first
+        return sorted(ctx, key=lambda l: (-self._generality(l), l.atom.predicate not in derived, l))
 
     def _generality(self, lit: Literal) -> float:
         """Weight of this action's training examples in which ``lit`` holds for the action's
@@ -505,9 +542,10 @@ def _absent_literals(state: frozenset, sigma: dict[str, str], predicates: dict[s
             if a.substitute(inv) not in state]
 
 
-def _unique(ex: Example, action: Atom, ctx: set[Literal], injective: bool) -> bool:
+def _unique(state: frozenset, ex: Example, action: Atom, ctx: set[Literal], injective: bool) -> bool:
+    """The context binds exactly one way in ``state`` (example ``ex``'s, with its derived atoms)."""
     probe = Rule(action, tuple(sorted(ctx)), (), (), 1.0)
-    return probe.covers(ex.state, ex.action, injective, ex.objects) is not None
+    return probe.covers(state, ex.action, injective, ex.objects) is not None
 
 
 def _fresh(rule: Rule) -> str:

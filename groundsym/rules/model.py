@@ -12,6 +12,11 @@ Semantics follow ALGORITHMS.md A.2-A.4 (Pasula et al. 2007, as libPRADA implemen
 * A :class:`RuleSet` covers ``(s, a)`` with its unique covering non-default rule, or else with the
   action's default rule (no change, or noise).
 * ``P(s' | s, a) = noise * p_min + sum of p_i over outcomes i that turn s into s'``.
+* A rule set may name *derived predicates* (:class:`Derived`): "no atom of ``base`` has these
+  arguments in these places", e.g. ``(no-on-1 ?x)``: nothing is under ``?x``. Contexts may use
+  them; they are computed from the state before coverage is checked and never appear in outcomes
+  (they change when their base atoms do). They say what a negated deictic reference would ("no
+  ``?y`` with ``(on ?x ?y)``"), which plain NID contexts cannot.
 """
 
 from __future__ import annotations
@@ -124,6 +129,57 @@ class Rule:
         return p
 
 
+@dataclass(frozen=True, order=True)
+class Derived:
+    """A derived predicate ``name(kept arguments)``: true iff no atom of ``base`` (arity
+    ``base_arity``) has the derived atom's arguments at positions ``keep`` (0-based), whatever
+    objects fill its other places. ``no-on-1`` = ``Derived("no-on-1", "on", 2, (0,))``: no
+    ``(on ?x _)``, nothing under ``?x``; ``no-on-2``: nothing on ``?x``; ``no-inhand``
+    (nullary): no object in the hand."""
+
+    name: str
+    base: str
+    base_arity: int
+    keep: tuple[int, ...]
+
+    @property
+    def arity(self) -> int:
+        return len(self.keep)
+
+    @staticmethod
+    def for_predicates(predicates: Mapping[str, int]) -> tuple["Derived", ...]:
+        """The derived predicates :func:`learn_rules` offers: for a unary ``p``, nullary ``no-p``;
+        for a binary ``p``, ``no-p-1(x)`` (no ``p(x, _)``) and ``no-p-2(x)`` (no ``p(_, x)``).
+        A name the predicates already use is left out."""
+        out = []
+        for p, k in sorted(predicates.items()):
+            cands = [Derived(f"no-{p}", p, 1, ())] if k == 1 else \
+                [Derived(f"no-{p}-{i + 1}", p, 2, (i,)) for i in range(2)] if k == 2 else []
+            out.extend(d for d in cands if d.name not in predicates)
+        return tuple(out)
+
+    def holding(self, state: Iterable[Atom], objects: Iterable[str]) -> frozenset:
+        """The derived atoms of this predicate that hold in ``state`` over ``objects``."""
+        taken = {tuple(a.args[i] for i in self.keep) for a in state
+                 if a.predicate == self.base and a.arity == self.base_arity}
+        objs = sorted(set(objects))
+        cands = [()] if not self.keep else [(o,) for o in objs] if len(self.keep) == 1 else \
+            list(permutations(objs, len(self.keep)))
+        return frozenset(Atom(self.name, t) for t in cands if t not in taken)
+
+
+def with_derived(state: frozenset, derived: Iterable[Derived], objects: Iterable[str] | None = None) -> frozenset:
+    """``state`` plus the derived atoms that hold in it (objects: those of ``state`` if not given)."""
+    derived = tuple(derived)
+    if not derived:
+        return state
+    objs = list(objects) if objects is not None else sorted({x for a in state for x in a.args})
+    out = set(state)
+    for d in derived:
+        out |= d.holding(state, objs)
+    return frozenset(out)
+
+
 @dataclass(frozen=True)
 class DefaultRule:
     """What happens when no rule (or more than one) covers: no change, or noise."""
@@ -147,6 +203,7 @@ class RuleSet:
     p_min: float = P_MIN
     p_min_default: float = P_MIN_DEFAULT
     injective: bool = True
+    derived: tuple[Derived, ...] = ()
     _by_action: dict = field(default=None, compare=False, repr=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
@@ -166,7 +223,9 @@ class RuleSet:
 
     def covering(self, state: frozenset, action: Atom,
                  objects: Iterable[str] | None = None) -> tuple[Rule | None, dict[str, str] | None]:
-        """The unique covering non-default rule and its binding, or (None, None) for the default."""
+        """The unique covering non-default rule and its binding, or (None, None) for the default.
+        ``state`` holds the base atoms only: the derived ones are added here."""
+        state = with_derived(state, self.derived, objects)
         hit: tuple[Rule, dict[str, str]] | None = None
         for r in self.rules_for(action.predicate):
             b = r.covers(state, action, self.injective, objects)
