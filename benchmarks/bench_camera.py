@@ -1,6 +1,6 @@
 """Cost of seeing the tower cell through the depth camera: primitives with and without it, per scene.
 
-Runs the same random traces (as ``groundsym collect`` does, cubes and balls) in a cell with
+Runs the same random traces (as ``groundsym collect`` does, cubes, balls and cans) in a cell with
 ``features=pose`` and one with ``features=pointcloud``, alternating rounds in one process pinned
 to one core so both see the same machine load, and prints primitives per CPU second of each and
 their ratio (a primitive with the camera renders one frame and computes the features of every
@@ -27,7 +27,7 @@ from sims.tower import TowerSim  # noqa: E402
 from sims.tower_camera import back_project, to_world  # noqa: E402
 from sims.tower_kinematics import pb  # noqa: E402
 
-CELL = {"cubes": 4, "balls": 3}
+CELL = {"cubes": 3, "balls": 2, "cans": 2}
 
 
 def primitives(sim: TowerSim, traces: int, length: int) -> tuple[int, float]:
@@ -70,11 +70,14 @@ def scene_parts(sim: TowerSim, traces: int, length: int) -> dict[str, float]:
 
 
 def split_render(sim: TowerSim, repeats: int = 10) -> tuple[float, float]:
-    """CPU ms of ``getCameraImage`` alone and of turning its depth buffer into world points, on
-    the current scene (``capture`` does both)."""
+    """CPU ms of ``getCameraImage`` alone (of the camera's copy of the world, after taking the
+    world's poses) and of turning its depth buffer into world points, on the current scene
+    (``capture`` does both)."""
     import numpy as np
 
-    cam, c = sim.camera, sim.world.client
+    cam = sim.camera
+    cam.twin.sync()
+    c = cam.twin.client
     args = (cam.width, cam.height, cam.view.T.ravel().tolist(), cam.proj.T.ravel().tolist())
     t = time.process_time()
     for _ in range(repeats):

@@ -11,6 +11,12 @@ change results)::
 
     git worktree add /tmp/cell-before <commit>
     python benchmarks/bench_sim.py --traces 6 --rounds 2 --against /tmp/cell-before
+
+With ``--camera`` the same traces also run in the cell seen through its depth camera
+(``features=pointcloud``, docs/perception.md), alternating rounds with the others, and the cost of a
+primitive with the camera against one without is printed (the limit is 1.5x)::
+
+    python benchmarks/bench_sim.py --traces 3 --rounds 2 --camera
 """
 
 from __future__ import annotations
@@ -26,10 +32,12 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parents[1]
 TARGET = 10.0
+CAMERA = "this code, depth camera on"
 
 
-def measure(root: Path, traces: int, length: int) -> dict[str, float]:
-    """Random traces on the code under ``root`` (imported from there), timed on this process's CPU."""
+def measure(root: Path, traces: int, length: int, camera: bool = False) -> dict[str, float]:
+    """Random traces on the code under ``root`` (imported from there), timed on this process's CPU
+    (with ``camera``, in the cell seen through its depth camera: ``features=pointcloud``)."""
     sys.path.insert(0, str(root))
     from groundsym.collect import trace_seeds
     from sims.tower import TowerSim
@@ -39,7 +47,7 @@ def measure(root: Path, traces: int, length: int) -> dict[str, float]:
     clock = [0.0]                      # CPU time inside the world's physics steps, running total
     physics = 0.0                      # ... of it, during primitives
     digest = hashlib.sha256()
-    with TowerSim() as sim:
+    with TowerSim(**({"features": "pointcloud"} if camera else {})) as sim:
         world_step = sim.world.step
 
         def timed_step(n: int = 1) -> None:
@@ -73,10 +81,10 @@ def scene_bytes(scene) -> bytes:
     return scene.features.tobytes() + repr(scene.reward).encode() + truth.encode()
 
 
-def run_child(root: Path, traces: int, length: int) -> dict[str, float]:
+def run_child(root: Path, traces: int, length: int, camera: bool = False) -> dict[str, float]:
     """One measurement in a fresh process pinned to one core (imports must not mix two trees)."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(root), "--traces", str(traces),
-           "--length", str(length)]
+           "--length", str(length)] + (["--camera"] if camera else [])
     out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=str(root)).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -97,12 +105,14 @@ def main() -> int:
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--rounds", type=int, default=1, help="alternating rounds per version")
     ap.add_argument("--against", type=Path, default=None, metavar="DIR", help="also measure the code in DIR")
+    ap.add_argument("--camera", action="store_true", help="also this code with the depth camera on "
+                    "(features=pointcloud, docs/perception.md), alternating, and the cost ratio")
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     if args.child:
-        print(json.dumps(measure(args.child, args.traces, args.length)))
+        print(json.dumps(measure(args.child, args.traces, args.length, args.camera)))
         return 0
     versions = {"this code": HERE}
     if args.against:
@@ -111,7 +121,12 @@ def main() -> int:
     for _ in range(args.rounds):
         for label, root in versions.items():
             runs[label].append(run_child(root, args.traces, args.length))
+        if args.camera:
+            runs.setdefault(CAMERA, []).append(run_child(HERE, args.traces, args.length, camera=True))
     rates = {label: summary(label, r) for label, r in runs.items()}
+    if args.camera:
+        print(f"a primitive with the depth camera costs {rates['this code'] / rates[CAMERA]:.2f}x one without "
+              f"(limit 1.5x)")
     if args.against:
         mine, other = rates["this code"], rates[str(args.against)]
         print(f"ratio this code / {args.against}: {mine / other:.2f}")

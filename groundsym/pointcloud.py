@@ -50,9 +50,10 @@ def sphere_fit(centred: np.ndarray) -> tuple[float, float]:
 
     The algebraic fit solves ``|p|^2 = 2 c.p + k`` by least squares (linear in the centre ``c`` and
     ``k = r^2 - |c|^2``); the points are centred and scaled to unit spread first so that it is well
-    conditioned. It does not tend to a plane on a flat patch: it fits the circle about the patch's
-    centre in its plane (the residual is then millimetres), so one flat face reads as not round,
-    as faces meeting at edges do. The curvature is clipped at ``MAX_CURVATURE``.
+    conditioned. On an exactly flat patch it fits the circle about the patch's centre in its plane
+    (the residual is then millimetres); on a nearly flat one it may fit a sphere of enormous radius
+    instead (residual near 0, but curvature near 0, far from any ball's). The curvature is clipped
+    at ``MAX_CURVATURE``.
     """
     scale = float(np.sqrt((centred ** 2).sum(1).mean())) or 1.0
     p = centred / scale
