@@ -94,8 +94,12 @@ class RayExecutor:
         else:
             self._temp_dir = tempfile.mkdtemp(prefix="groundsym-ray-")
             where = "a local Ray instance"
+            # worker_niceness: Ray runs its workers 15 steps nicer than the command by default;
+            # like the process pool's, they run at the command's priority (on a shared machine
+            # they would otherwise get almost no CPU while other work runs)
             self._init(num_cpus=max(1, int(cpus or os.cpu_count() or 1)), _temp_dir=self._temp_dir,
-                       runtime_env=code_runtime_env() if ship_code else None)
+                       runtime_env=code_runtime_env() if ship_code else None,
+                       _system_config={"worker_niceness": 0})
         cpus_now = int(self.ray.cluster_resources().get("CPU", 0))
         nodes = sum(1 for n in self.ray.nodes() if n.get("Alive"))
         self.description = f"{where} ({cpus_now} CPU(s) on {nodes} node(s))"
