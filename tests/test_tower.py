@@ -473,3 +473,30 @@ def test_traces_record_the_cell_version_and_older_cells_are_warned_about(capsys)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "old.json" in err and "version 1" in err
     assert not warn_if_older_cell({"sim": "no-such-sim"}, "x.json")
+
+
+def test_objects_at_rest_sleep_and_wake_when_anything_touches_them():
+    """A cube resting for 2 s sleeps: its pose stops changing to the bit. A cube slid into the
+    sleeping cube pushes it as it pushes the same cube kept awake (sleeping off)."""
+    def push(sleeping: bool) -> np.ndarray:
+        world = TowerWorld()
+        try:
+            world.build([("cube", 0.05, 0.5, 0.0, 0.0)])
+            resting = world.bodies[0].uid
+            if not sleeping:
+                pb.changeDynamics(resting, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
+                                  physicsClientId=world.client)
+            world.step(300)                                     # 2.5 s at rest
+            before = world.poses()[0][0].copy()
+            world.step(60)
+            assert np.array_equal(world.poses()[0][0], before) == sleeping
+            world.bodies.append(world._make_object("cube", 0.04, 0.5, 0.08, 0.0))
+            pb.resetBaseVelocity(world.bodies[1].uid, (0.0, -1.0, 0.0), physicsClientId=world.client)
+            world.step(240)
+            return world.poses()[0][0] - before
+        finally:
+            world.close()
+
+    asleep, awake = push(True), push(False)
+    assert awake[1] < -0.003                                     # the sliding cube pushes the resting one ...
+    np.testing.assert_allclose(asleep, awake, atol=0.0005)       # ... whether it slept or not
