@@ -3,14 +3,15 @@
 Fast: bad input (Ray missing, an unreachable or malformed address) in one line; one real local Ray
 instance on which `learn --executor ray` gives the symbols of one process, and an evaluation
 folder is passed between processes and Ray. Slow: results.json for processes with 1 and 2 workers
-and Ray; a Ray worker killed in a task; the driver killed and rerun; a real two-node cluster
-started with `ray start` and joined through `--ray-address`.
+and Ray; a Ray worker killed in a task; the driver killed and rerun; Ctrl-C on Ray; a real
+two-node cluster started with `ray start` and joined through `--ray-address`.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -281,6 +282,45 @@ def test_a_killed_driver_resumes_from_its_finished_units(reference, tmp_path):
     assert _end(ray_processes, 150) == set()
     subprocess.run(small(out, "--executor", "ray", "--workers", "2"), check=True)
     assert all((out / "runs" / name).read_text() == text for name, text in done.items())
+    same_as(out, reference)
+
+
+@pytest.mark.slow
+def test_ctrl_c_on_ray_stops_everything_and_the_rerun_resumes(reference, tmp_path):
+    """Ctrl-C at a terminal (SIGINT to the driver's whole process group) while Ray runs a unit:
+    the driver exits with 130 and its one 'interrupted' line, writes no half unit, every process
+    of the local Ray ends and its temporary folder goes; the same command then finishes the
+    evaluation with the results of an uninterrupted run."""
+    out = tmp_path / "E"
+    proc = subprocess.Popen(small(out, "--executor", "ray", "--workers", "2"), stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        def running_unit():
+            return [p for p in _children(proc.pid) if _title(p).startswith("ray::run_unit")]
+        _wait_for(running_unit, proc, "a unit ran")
+        ray_processes = _children(proc.pid)
+        temp = {m.group(1) for p in ray_processes
+                for m in re.finditer(r"(/[^\s=]*/groundsym-ray-[^/\s]+)", _title(p))}   # the local Ray's folder
+        assert len(temp) == 1, temp
+        temp_dir = Path(temp.pop())
+        assert temp_dir.is_dir()
+        written = set((out / "runs").glob("*.json")) if (out / "runs").exists() else set()
+        os.killpg(proc.pid, signal.SIGINT)
+        status = proc.wait(timeout=120)
+        err = proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert status == 130, err
+    assert err.strip().splitlines()[-1] == "groundsym evaluate: interrupted", err
+    assert "Traceback" not in err, err
+    assert _end(ray_processes, 120) == set()       # nothing of Ray left running
+    assert not temp_dir.exists()
+    kept = sorted((out / "runs").glob("*.json")) if (out / "runs").exists() else []
+    assert len(kept) < 3 and set(kept) >= written   # no unit was half written (each one parses below)
+    for p in kept:
+        json.loads(p.read_text())
+    subprocess.run(small(out, "--executor", "ray", "--workers", "2"), check=True)
     same_as(out, reference)
 
 
