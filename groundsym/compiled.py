@@ -16,6 +16,8 @@ load it. Without numba installed, :data:`AVAILABLE` is False and the loss uses n
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 try:  # numba is a dependency; the numpy reference keeps the loss usable without it
@@ -34,6 +36,7 @@ from .canonical import _M1, _M2, _P
 M1, M2 = np.uint64(_M1), np.uint64(_M2)
 P0, P1, P2, P3, P4, P5 = (np.uint64(p) for p in _P[:6])
 INF = np.inf
+LN2 = math.log(2.0)   # as symbols.LN2
 
 
 # ----------------------------------------------------------------------------- canonical forms
@@ -620,6 +623,97 @@ def _pack(dist, orders, f, m):
 
 
 @njit(cache=True)
+def _pinned_tables(unary, binary, lock):
+    """What :func:`_pinned_bound` needs per class, in canonical order.
+
+    The action's arguments sit at the front of the canonical order (descending locks, distinct
+    values), and every kept order sends them to the same front positions: they are *pinned*. A
+    class qualifies when that holds (``pinned``); ``pin`` (C, M) marks its pinned positions,
+    ``pu`` (C, M) their unary bits as a word, ``pcount`` (C, K) unary counts over the free
+    positions, ``pdeg`` (C, M, L, 2) out- and in-degrees without the edges between two pinned
+    objects, ``pedge`` (C, M, M, L) the binary bits (read between pinned positions only) and
+    ``psorted`` (C, L, 2, M) the free positions' degrees sorted (the first M - pins entries used).
+    """
+    c_n, m, k = unary.shape
+    l = binary.shape[3]
+    pinned = np.zeros(c_n, dtype=np.bool_)
+    pin = np.zeros((c_n, m), dtype=np.bool_)
+    pu = np.zeros((c_n, m), dtype=np.uint64)
+    pcount = np.zeros((c_n, k), dtype=np.int64)
+    pdeg = np.zeros((c_n, m, l, 2), dtype=np.int64)
+    psorted = np.zeros((c_n, l, 2, m), dtype=np.int64)
+    free = np.empty(m, dtype=np.int64)
+    for c in range(c_n):
+        ok = k <= 64
+        n_pin = 0
+        for p in range(m):
+            if lock[c, p] != 0:
+                if p != n_pin or (p > 0 and lock[c, p - 1] <= lock[c, p]):
+                    ok = False              # arguments not at the front in strictly descending order
+                pin[c, p] = True
+                n_pin += 1
+        if not ok or n_pin == 0:
+            continue
+        pinned[c] = True
+        for p in range(m):
+            for a in range(k):
+                if pin[c, p]:
+                    if unary[c, p, a]:
+                        pu[c, p] |= np.uint64(1) << np.uint64(a)
+                else:
+                    pcount[c, a] += unary[c, p, a]
+            for y in range(m):
+                if pin[c, p] and pin[c, y]:
+                    continue
+                for a in range(l):
+                    pdeg[c, p, a, 0] += binary[c, p, y, a]
+                    pdeg[c, y, a, 1] += binary[c, p, y, a]
+        for a in range(l):
+            for d in range(2):
+                n_free = 0
+                for p in range(m):
+                    if not pin[c, p]:
+                        free[n_free] = pdeg[c, p, a, d]
+                        n_free += 1
+                psorted[c, a, d, :n_free] = np.sort(free[:n_free])
+    return pinned, pin, pu, pcount, pdeg, binary, psorted
+
+
+@njit(cache=True)
+def _pinned_bound(pin, q, c, pu, pcount, pdeg, pedge, psorted, m):
+    """A lower bound on the distance of compatible classes q and c with pinned arguments.
+
+    Unary: the pinned objects' own mismatches plus per-symbol count differences of the free
+    ones. Binary: the edges between pinned objects exactly, and every other mismatched edge
+    changes one out-degree and one in-degree, so half the summed degree differences (pinned
+    objects against their fixed partners, free ones sorted: the best 1-D matching) is admissible.
+    """
+    k = pcount.shape[1]
+    l = pdeg.shape[2]
+    s = 0.0
+    for a in range(k):
+        s += abs(pcount[q, a] - pcount[c, a])
+    n_free = 0
+    h = 0.0
+    for p in range(m):
+        if not pin[q, p]:
+            n_free += 1
+            continue
+        s += float(_popcount(pu[q, p] ^ pu[c, p]))
+        for y in range(m):
+            if pin[q, y]:
+                for a in range(l):
+                    s += pedge[q, p, y, a] != pedge[c, p, y, a]
+        for a in range(l):
+            h += abs(pdeg[q, p, a, 0] - pdeg[c, p, a, 0]) + abs(pdeg[q, p, a, 1] - pdeg[c, p, a, 1])
+    for a in range(l):
+        for d in range(2):
+            for t in range(n_free):
+                h += abs(psorted[q, a, d, t] - psorted[c, a, d, t])
+    return s + 0.5 * h
+
+
+@njit(cache=True)
 def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, order_cache):
     """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
 
@@ -646,20 +740,34 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hq = np.empty(4 * q_n + 4, dtype=np.int64)
     hv = np.empty(4 * q_n + 4, dtype=np.int64)
     hc = np.empty(4 * q_n + 4, dtype=np.int64)
-    bound = np.empty(c_n)
     packed = np.empty(c_n, dtype=np.int64)
     mask = np.int64((1 << _DIST_SHIFT) - 1)
+    pinned, pin, pu, pcount, pdeg, pedge, psorted = _pinned_tables(unary, binary, lock)
+    # compatible classes (same primitive, arguments at the same positions) form groups; a query
+    # looks at its own group only, in increasing class order
+    grp = np.empty(c_n, dtype=np.int64)
+    for c in range(c_n):
+        grp[c] = -1
+        for c2 in range(c):
+            if grp[c2] == c2 and labels[c2] == labels[c]:
+                same = True
+                for i in range(m):
+                    if lock[c2, i] != lock[c, i]:
+                        same = False
+                        break
+                if same:
+                    grp[c] = c2
+                    break
+        if grp[c] < 0:
+            grp[c] = c
+    cand = np.empty(c_n, dtype=np.int64)
+    cb = np.empty(c_n)
+    dist = np.full(c_n, INF)
     for qi in range(q_n):
         q = lone[qi]
+        n_c = 0
         for c in range(c_n):
-            ok = c != q and labels[c] == labels[q]
-            if ok:
-                for i in range(m):
-                    if lock[c, i] != lock[q, i]:
-                        ok = False
-                        break
-            if not ok:
-                bound[c] = INF
+            if c == q or grp[c] != grp[q]:
                 continue
             s = 0.0
             h = 0.0
@@ -669,25 +777,28 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     s += d
                 else:
                     h += d
-            bound[c] = s + 0.5 * h
-        order = np.argsort(bound, kind="mergesort")
-        if bound[order[0]] == INF:
+            lo = s + 0.5 * h
+            if pinned[q]:
+                lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, pedge, psorted, m))
+            cand[n_c] = c
+            cb[n_c] = lo
+            n_c += 1
+        if n_c == 0:
             continue
+        order = np.argsort(cb[:n_c], kind="mergesort")
         orders = np.empty((0, m), dtype=np.int8)
         qw = np.empty((0, w), dtype=np.uint64)
         have_orders = False
-        dist = np.full(c_n, INF)
         b = INF
         base = ids[q] << np.int64(32)
-        for oi in range(c_n):
-            c = order[oi]
-            lo = bound[c]
-            if lo == INF or lo > b:
+        for oi in range(n_c):
+            c = cand[order[oi]]
+            lo = cb[order[oi]]
+            if lo > b:
                 break
             key = base | ids[c]
-            if key in memo:
-                v = memo[key]
-            else:
+            v = memo.get(key, np.int64(-1))
+            if v < 0:
                 if not have_orders:
                     orders = _orders_of(twin_groups_row(ucode[q], ecode[q]), lock[q], order_cache)
                     qw = _permuted_words(unary[q], binary[q], orders, w)
@@ -712,7 +823,8 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             if dv < b:
                 b = dv
         best[qi] = b
-        for c in range(c_n):
+        for t in range(n_c):
+            c = cand[t]
             if dist[c] == b:
                 if n_hits == len(hq):
                     hq = np.concatenate((hq, np.empty_like(hq)))
@@ -722,11 +834,207 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 hc[n_hits] = c
                 hv[n_hits] = packed[c] & mask
                 n_hits += 1
+            dist[c] = INF
     hs = np.empty((n_hits, m), dtype=np.int64)
     for t in range(n_hits):
         for p in range(m):
             hs[t, p] = (hv[t] >> np.int64(_SIGMA_BITS * p)) & np.int64(7)
     return best, hq[:n_hits], hc[:n_hits], hs
+
+
+@njit(cache=True)
+def _codes(u, b, lock):
+    """canonical.object_codes and canonical.codes of a batch: (N, M) object codes, (N, M, M) edge codes."""
+    n, m, k = u.shape
+    l = b.shape[3]
+    ucode = np.empty((n, m), dtype=np.int64)
+    ecode = np.empty((n, m, m), dtype=np.int64)
+    for i in range(n):
+        for x in range(m):
+            v = np.int64(lock[i, x]) << np.int64(k)
+            for a in range(k):
+                v += np.int64(u[i, x, a]) << np.int64(a)
+            ucode[i, x] = v
+            for y in range(m):
+                e = np.int64(0)
+                for a in range(l):
+                    e += np.int64(b[i, x, y, a]) << np.int64(a)
+                ecode[i, x, y] = e
+    return ucode, ecode
+
+
+@njit(cache=True)
+def _row_less(keys, i, j):
+    """Row i of ``keys`` before row j: bytes compared in order (memcmp), then the row index."""
+    for c in range(keys.shape[1]):
+        if keys[i, c] != keys[j, c]:
+            return keys[i, c] < keys[j, c]
+    return i < j
+
+
+@njit(cache=True)
+def group_keys(keys):
+    """loss.group_rows compiled: (first row of each group, group id per row), groups numbered in
+    sorted (byte) order of the rows, a group's first row its smallest index."""
+    n = keys.shape[0]
+    order = np.arange(n)
+    tmp = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:                       # bottom-up merge sort by (row bytes, index)
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            a, z, t = lo, mid, lo
+            while a < mid and z < hi:
+                if _row_less(keys, order[z], order[a]):
+                    tmp[t] = order[z]
+                    z += 1
+                else:
+                    tmp[t] = order[a]
+                    a += 1
+                t += 1
+            while a < mid:
+                tmp[t] = order[a]
+                a += 1
+                t += 1
+            while z < hi:
+                tmp[t] = order[z]
+                z += 1
+                t += 1
+        order, tmp = tmp, order
+        width *= 2
+    cls = np.empty(n, dtype=np.int64)
+    first = np.empty(n, dtype=np.int64)
+    g = -1
+    for t in range(n):
+        r = order[t]
+        if t == 0 or not _equal(keys[r], keys[order[t - 1]]):
+            g += 1
+            first[g] = r
+        cls[r] = g
+    return first[:g + 1], cls
+
+
+@njit(cache=True)
+def _profiles_of(u, b, rows):
+    """loss._profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol."""
+    n = len(rows)
+    m, k = u.shape[1], u.shape[2]
+    l = b.shape[3]
+    out = np.zeros((n, k + 2 * m * l), dtype=np.int64)
+    deg = np.empty(m, dtype=np.int64)
+    for r in range(n):
+        s = rows[r]
+        for a in range(k):
+            for x in range(m):
+                out[r, a] += u[s, x, a]
+        for a in range(l):
+            for x in range(m):
+                d = 0
+                for y in range(m):
+                    d += b[s, x, y, a]
+                deg[x] = d
+            out[r, k + a * m:k + (a + 1) * m] = np.sort(deg)
+            for y in range(m):
+                d = 0
+                for x in range(m):
+                    d += b[s, x, y, a]
+                deg[y] = d
+            out[r, k + m * l + a * m:k + m * l + (a + 1) * m] = np.sort(deg)
+    return out
+
+
+@njit(cache=True)
+def _intern(row, table, store):
+    """The id of ``row`` in ``store`` (a typed list of rows), added if new; ``table`` maps a hash
+    to an id and is probed linearly past rows that only share the hash."""
+    h = _hash_bytes(row)
+    while h in table:
+        i = table[h]
+        if len(store[i]) == len(row) and _equal(store[i], row):
+            return i
+        h += 1
+    i = len(store)
+    store.append(row.copy())
+    table[h] = i
+    return i
+
+
+@njit(cache=True)
+def neighbourhood(u, b, lock, label, state_memo, table, store, memo, order_cache):
+    """Loss.neighbours compiled whole (canonical forms, classes, nearest classes of lone classes).
+
+    ``u`` (N, M, K), ``b`` (N, M, M, L), ``lock`` (N, M) int64, ``label`` (N,) int64 (< 256).
+    ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
+    (canonical form and primitive) for the pair ``memo`` of :func:`nearest_classes`, which also
+    takes ``order_cache``. Returns
+    the fields of ``loss.Neighbourhood``: cls, perms, lone, best, hit query, class, sigma.
+    """
+    n, m = lock.shape
+    ucode, ecode = _codes(u, b, lock)
+    forms, perms = canonical_batch(u, b, lock, ucode, ecode, state_memo)
+    r_len = forms.shape[1]
+    keys = np.empty((n, r_len + 1), dtype=np.uint8)
+    keys[:, :r_len] = forms
+    for i in range(n):
+        keys[i, r_len] = np.uint8(label[i])
+    first, cls = group_keys(keys)
+    c_n = len(first)
+    sizes = np.zeros(c_n, dtype=np.int64)
+    for i in range(n):
+        sizes[cls[i]] += 1
+    n_lone = 0
+    for c in range(c_n):
+        n_lone += sizes[c] == 1
+    lone = np.empty(n_lone, dtype=np.int64)
+    t = 0
+    for c in range(c_n):
+        if sizes[c] == 1:
+            lone[t] = c
+            t += 1
+    k = u.shape[2]
+    l = b.shape[3]
+    ru = np.empty((c_n, m, k), dtype=np.uint8)
+    rb = np.empty((c_n, m, m, l), dtype=np.uint8)
+    rl = np.empty((c_n, m), dtype=np.int64)
+    labels = np.empty(c_n, dtype=np.int64)
+    ids = np.empty(c_n, dtype=np.int64)
+    for c in range(c_n):
+        f = first[c]
+        for x in range(m):
+            px = perms[f, x]
+            ru[c, x] = u[f, px]
+            rl[c, x] = lock[f, px]
+            for y in range(m):
+                rb[c, x, y] = b[f, px, perms[f, y]]
+        labels[c] = label[f]
+        ids[c] = _intern(keys[f], table, store)
+    profile = _profiles_of(u, b, first)
+    rucode, recode = _codes(ru, rb, rl)
+    best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo, order_cache)
+    return cls, perms, lone, best, hq, hc, hs
+
+
+def new_intern():
+    """An empty interning table and store for :func:`neighbourhood` (hash -> id, id -> key row)."""
+    table = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+    store = numba.typed.List.empty_list(numba.types.uint8[::1])
+    return table, store
+
+
+@njit(cache=True)
+def rbf_holds(space, centre, widths):
+    """Symbol.holds over the rows of ``space`` (P, n): the same float steps, dimension by dimension."""
+    out = np.empty(space.shape[0], dtype=np.bool_)
+    n = len(centre)
+    for r in range(space.shape[0]):
+        z = (space[r, 0] - centre[0]) / widths[0]
+        acc = z * z
+        for d in range(1, n):
+            z = (space[r, d] - centre[d]) / widths[d]
+            acc += z * z
+        out[r] = acc < LN2
+    return out
 
 
 def new_memo():
@@ -937,6 +1245,57 @@ def reward_entries(cls, lone, hq, hc):
     return item[srt], other[srt]
 
 
+@njit(cache=True)
+def _top_and_diff(item, lp, n):
+    """First half of loss.mixture_ll: per item the largest log-probability, per entry its distance to it."""
+    top = np.full(n, -np.inf)
+    for t in range(len(item)):
+        if lp[t] > top[item[t]]:
+            top[item[t]] = lp[t]
+    diff = np.empty(len(item))
+    for t in range(len(item)):
+        diff[t] = lp[t] - top[item[t]]
+    return top, diff
+
+
+@njit(cache=True)
+def transition_mixture(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes, log_eps, log_ok, n_lit):
+    """:func:`transition_entries` and the float steps of loss.mixture_ll before the exponential:
+    (item, weight, lp - top per entry, top per item). The caller takes ``np.exp`` (numpy's, as the
+    reference does) and finishes with :func:`mixture_sums`."""
+    item, mis, weight = transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes)
+    lp = np.empty(len(item))
+    for t in range(len(item)):
+        lp[t] = mis[t] * log_eps + (n_lit - mis[t]) * log_ok
+    top, diff = _top_and_diff(item, lp, len(cls))
+    return item, weight.astype(np.float64), diff, top
+
+
+@njit(cache=True)
+def reward_mixture(cls, lone, hq, hc, reward, c0, two_s2):
+    """:func:`reward_entries` with the reward term's log-densities ``c0 - (r_i - r_j)^2 / two_s2``,
+    as :func:`transition_mixture` returns them (the weights are all 1)."""
+    item, other = reward_entries(cls, lone, hq, hc)
+    lp = np.empty(len(item))
+    for t in range(len(item)):
+        d = reward[item[t]] - reward[other[t]]
+        lp[t] = c0 - d * d / two_s2
+    top, diff = _top_and_diff(item, lp, len(cls))
+    return item, diff, top
+
+
+@njit(cache=True)
+def mixture_sums(item, e, weight, n):
+    """Second half of loss.mixture_ll: per item the weighted sum of ``e`` and of the weights,
+    accumulated in entry order (as ``np.add.at`` does)."""
+    acc = np.zeros(n)
+    cnt = np.zeros(n)
+    for t in range(len(item)):
+        acc[item[t]] += weight[t] * e[t]
+        cnt[item[t]] += weight[t]
+    return acc, cnt
+
+
 def warm_up() -> float:
     """Compile (or load from the disk cache) every kernel on a tiny input; returns the seconds spent.
 
@@ -962,6 +1321,14 @@ def warm_up() -> float:
         transition_entries(u, b, np.array([0, 0]), np.array([1, 1]), np.array([[0, 1, 2], [0, 1, 2]]), cls,
                            cls, one, one, np.zeros((0, 3), dtype=np.int64), True)
         reward_entries(cls, cls, one, one)
+        item, weight, diff, top = transition_mixture(u, b, np.array([0, 0]), np.array([1, 1]),
+                                                     np.array([[0, 1, 2], [0, 1, 2]]), cls, cls, one, one,
+                                                     np.zeros((0, 3), dtype=np.int64), True, -3.0, -0.05, 6)
+        mixture_sums(item, np.exp(diff), weight, 2)
+        reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
+        rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
+        neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), new_memo(),
+                      new_order_cache())
         from .canonical import canonical_forms    # a directed 4-cycle needs individualisation
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)
         for i in range(4):

@@ -198,12 +198,14 @@ class Loss:
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
         self._truth_cache: dict[tuple, np.ndarray] = {}
+        self._off_diagonal = ~np.eye(data.features.shape[1], dtype=bool)
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
-        self._class_ids: dict[bytes, int] = {}
         self._pair_memo = compiled.new_memo() if kernels == "numba" else None
         self._order_cache = compiled.new_order_cache() if kernels == "numba" else None
         self._state_memo = compiled.new_state_memo() if kernels == "numba" else None
+        self._intern = compiled.new_intern() if kernels == "numba" else None
+        self._passes = 0
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -241,7 +243,13 @@ class Loss:
             if col is None:
                 if len(self._truth_cache) >= 512:
                     self._truth_cache.pop(next(iter(self._truth_cache)))
-                col = self._truth_cache[key] = fn([s], space)[..., 0]
+                if self.kernels == "numba":
+                    col = compiled.rbf_holds(space.reshape(-1, space.shape[-1]), s.centre, s.widths).reshape(space.shape[:-1])
+                    if s.arity == 2:
+                        col &= self._off_diagonal
+                else:
+                    col = fn([s], space)[..., 0]
+                self._truth_cache[key] = col
             cols.append(col)
         shape = space.shape[:-1] + (len(symbols),)
         return np.stack(cols, axis=-1) if cols else np.zeros(shape, dtype=bool)
@@ -254,6 +262,8 @@ class Loss:
         of a class with others has those others as its neighbours at distance 0. A lone item's
         neighbours are all members of the nearest other classes, found by branch and bound.
         """
+        if self.kernels == "numba" and u.shape[1] <= ENUMERATE_MAX:
+            return self._neighbours_compiled(u, b, lock, label)
         if self.kernels == "numba" and u.shape[1] <= 255:
             if len(self._state_memo) > 200_000:
                 self._state_memo = compiled.new_state_memo()
@@ -263,9 +273,6 @@ class Loss:
             forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
         keys = np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1)
         first, cls = group_rows(keys)
-        sizes = np.bincount(cls, minlength=len(first))
-        if self.kernels == "numba" and u.shape[1] <= ENUMERATE_MAX:
-            return self._nearest_compiled(np.flatnonzero(sizes == 1), u, b, lock, label, perms, first, keys, cls)
         members = class_members(cls, len(first))
         reps = [self._encoded(u, b, lock, label, perms, int(first[k])) for k in range(len(first))]
         rep_keys = [keys[first[k]].tobytes() for k in range(len(first))]
@@ -280,27 +287,20 @@ class Loss:
                 hits[k] = self._nearest_class(k, reps, rep_keys, profile, lock_sig)
         return Neighbourhood.from_hits(cls, perms, hits)
 
-    def _nearest_compiled(self, lone: np.ndarray, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray,
-                          perms: np.ndarray, first: np.ndarray, keys: np.ndarray, cls: np.ndarray) -> "Neighbourhood":
-        """:meth:`_nearest_enumerated` through the compiled kernel (the same hits in the same order).
-
-        Classes are interned by their keys (canonical encoding and primitive), so the kernel's
-        pair memo can hold each pair's exact distance across evaluations.
-        """
-        p = perms[first]
-        rows = first[:, None]
-        ru = u[rows, p]
-        rb = b[rows[:, :, None], p[:, :, None], p[:, None, :]]
-        rl = lock[rows, p].astype(np.int64)
-        if len(self._class_ids) > 500_000 or len(self._pair_memo) > 4_000_000:
-            self._class_ids.clear()
-            self._pair_memo = compiled.new_memo()
-        intern = self._class_ids
-        ids = np.array([intern.setdefault(keys[f].tobytes(), len(intern)) for f in first.tolist()], dtype=np.int64)
-        best, hq, hc, hs = compiled.nearest_classes(ru, rb, rl, label[first].astype(np.int64), _profiles(u, b, first),
-                                                    ru.shape[2], lone, object_codes(ru, rl), codes(rb), ids,
-                                                    self._pair_memo, self._order_cache)
-        return Neighbourhood(cls, perms, lone, best, hq, hc, hs)
+    def _neighbours_compiled(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray,
+                             label: np.ndarray) -> "Neighbourhood":
+        """:meth:`neighbours` in one compiled call (:func:`compiled.neighbourhood`): the same
+        classes, hits and permutations, without the array glue between the steps."""
+        self._passes += 1
+        if self._passes % 64 == 0:      # (a typed dict's len costs a call into numba: not every pass)
+            if len(self._state_memo) > 200_000:
+                self._state_memo = compiled.new_state_memo()
+            if len(self._intern[1]) > 500_000 or len(self._pair_memo) > 4_000_000:
+                self._intern = compiled.new_intern()
+                self._pair_memo = compiled.new_memo()
+        fields = compiled.neighbourhood(u, b, lock.astype(np.int64, copy=False), label.astype(np.int64, copy=False),
+                                        self._state_memo, *self._intern, self._pair_memo, self._order_cache)
+        return Neighbourhood(*fields)
 
     def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
         """Nearest classes of every lone class by bit-parallel enumeration, all queries at once.
@@ -451,12 +451,13 @@ class Loss:
             return 0.0
         nb = self.neighbours(u[d.pre], b[d.pre], d.lock, d.label)
         changes = self.config.predict == "changes"
-        if self.kernels == "numba":
-            item, mis, weight = compiled.transition_entries(
-                u, b, d.pre, d.post, nb.perms, nb.cls, nb.lone, nb.hit_query, nb.hit_class, nb.hit_sigma, changes)
-        else:
-            item, mis, weight = transition_entries(u, b, d.pre, d.post, nb, changes)
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
+        if self.kernels == "numba":
+            item, weight, diff, top = compiled.transition_mixture(
+                u, b, d.pre, d.post, nb.perms, nb.cls, nb.lone, nb.hit_query, nb.hit_class, nb.hit_sigma, changes,
+                log_eps, log_ok, n_lit)
+            return float(-mixture_finish(top, *compiled.mixture_sums(item, np.exp(diff), weight, len(d.pre))).sum())
+        item, mis, weight = transition_entries(u, b, d.pre, d.post, nb, changes)
         lp = mis * log_eps + (n_lit - mis) * log_ok
         return float(-mixture_ll(item, lp, weight, len(d.pre)).sum())
 
@@ -464,12 +465,14 @@ class Loss:
         d = self.data
         n = len(d.pre)
         nb = self.neighbours(u[d.pre], b[d.pre], np.zeros_like(d.lock), np.zeros(n, dtype=np.int64))
-        if self.kernels == "numba":
-            item, other = compiled.reward_entries(nb.cls, nb.lone, nb.hit_query, nb.hit_class)
-        else:
-            item, other = reward_entries(nb)
         s2 = self.sigma ** 2
-        lp = -0.5 * math.log(2 * math.pi * s2) - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
+        c0 = -0.5 * math.log(2 * math.pi * s2)
+        if self.kernels == "numba":
+            item, diff, top = compiled.reward_mixture(nb.cls, nb.lone, nb.hit_query, nb.hit_class, d.reward, c0, 2 * s2)
+            e = np.exp(diff)
+            return float(-mixture_finish(top, *compiled.mixture_sums(item, e, np.ones(len(item)), n)).sum())
+        item, other = reward_entries(nb)
+        lp = c0 - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
         return float(-mixture_ll(item, lp, np.ones(len(item)), n).sum())
 
 
@@ -681,6 +684,12 @@ def mixture_ll(item: np.ndarray, lp: np.ndarray, weight: np.ndarray, n: int) -> 
     np.add.at(acc, item, weight * np.exp(lp - top[item]))
     cnt = np.zeros(n)
     np.add.at(cnt, item, weight)
+    return mixture_finish(top, acc, cnt)
+
+
+def mixture_finish(top: np.ndarray, acc: np.ndarray, cnt: np.ndarray) -> np.ndarray:
+    """The last step of :func:`mixture_ll` (shared with the compiled path): ``top + log(acc / cnt)``
+    per item, 0 for an item without entries."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ll = top + np.log(acc) - np.log(cnt)
     ll[cnt == 0] = 0.0
