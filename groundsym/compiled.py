@@ -968,7 +968,9 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo, order_cache
     ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
     (canonical form and primitive) for the pair ``memo`` of :func:`nearest_classes`, which also
     takes ``order_cache``. Returns
-    the fields of ``loss.Neighbourhood``: cls, perms, lone, best, hit query, class, sigma.
+    the fields of ``loss.Neighbourhood`` (cls, perms, lone, best, hit query, class, sigma) and the
+    sizes of the state memo, the interned keys and the pair memo (``len`` of a typed container called from Python
+    compiles on first use, seconds, and costs a dispatch every time).
     """
     n, m = lock.shape
     ucode, ecode = _codes(u, b, lock)
@@ -1012,7 +1014,7 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo, order_cache
     profile = _profiles_of(u, b, first)
     rucode, recode = _codes(ru, rb, rl)
     best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo, order_cache)
-    return cls, perms, lone, best, hq, hc, hs
+    return cls, perms, lone, best, hq, hc, hs, (len(state_memo), len(store), len(memo))
 
 
 def new_intern():
@@ -1207,13 +1209,39 @@ def transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes):
 
 
 @njit(cache=True)
+def _hit_partners(q, lone, hit_start, hc, order, start, buf):
+    """The members of lone query q's nearest classes, in increasing item order, into ``buf``."""
+    n = 0
+    for t in range(hit_start[q], hit_start[q + 1]):
+        c = hc[t]
+        for g in range(start[c], start[c + 1]):
+            buf[n] = order[g]
+            n += 1
+    buf[:n] = np.sort(buf[:n])
+    return n
+
+
+@njit(cache=True)
+def _hit_ranges(n_lone, hq, n_cls, lone):
+    """Where each lone query's hits start in (hq, hc), and each class's position in ``lone``."""
+    hit_start = np.zeros(n_lone + 1, dtype=np.int64)
+    for t in range(len(hq)):
+        hit_start[hq[t] + 1] += 1
+    for q in range(n_lone):
+        hit_start[q + 1] += hit_start[q]
+    lone_pos = np.full(n_cls, -1, dtype=np.int64)
+    for q in range(n_lone):
+        lone_pos[lone[q]] = q
+    return hit_start, lone_pos
+
+
+@njit(cache=True)
 def reward_entries(cls, lone, hq, hc):
-    """loss.reward_entries (the numpy reference) compiled: the same entries in the same order."""
+    """loss.reward_entries (the numpy reference) compiled: the same entries in the same order,
+    written item by item (partners in increasing order) instead of sorted afterwards."""
     n = len(cls)
     order, start = _class_members(cls)
-    lone_pos = np.full(len(start) - 1, -1, dtype=np.int64)
-    for q in range(len(lone)):
-        lone_pos[lone[q]] = q
+    hit_start, lone_pos = _hit_ranges(len(lone), hq, len(start) - 1, lone)
     total = 0
     for k in range(len(start) - 1):
         size = start[k + 1] - start[k]
@@ -1223,26 +1251,22 @@ def reward_entries(cls, lone, hq, hc):
         total += start[hc[t] + 1] - start[hc[t]]
     item = np.empty(total, dtype=np.int64)
     other = np.empty(total, dtype=np.int64)
+    buf = np.empty(n, dtype=np.int64)
     e = 0
-    for k in range(len(start) - 1):
-        g0, g1 = start[k], start[k + 1]
-        if g1 - g0 > 1:
-            for a in range(g0, g1):
-                for a2 in range(g0, g1):
-                    if a != a2:
-                        item[e] = order[a]
-                        other[e] = order[a2]
-                        e += 1
-    for t in range(len(hq)):
-        i = order[start[lone[hq[t]]]]
-        c = hc[t]
-        for g in range(start[c], start[c + 1]):
-            item[e] = i
-            other[e] = order[g]
-            e += 1
-    key = item * (n + 1) + other
-    srt = np.argsort(key, kind="mergesort")
-    return item[srt], other[srt]
+    for i in range(n):
+        k = cls[i]
+        if start[k + 1] - start[k] > 1:
+            for g in range(start[k], start[k + 1]):
+                if order[g] != i:
+                    item[e] = i
+                    other[e] = order[g]
+                    e += 1
+        else:
+            for t in range(_hit_partners(lone_pos[k], lone, hit_start, hc, order, start, buf)):
+                item[e] = i
+                other[e] = buf[t]
+                e += 1
+    return item, other
 
 
 @njit(cache=True)

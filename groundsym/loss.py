@@ -205,7 +205,7 @@ class Loss:
         self._order_cache = compiled.new_order_cache() if kernels == "numba" else None
         self._state_memo = compiled.new_state_memo() if kernels == "numba" else None
         self._intern = compiled.new_intern() if kernels == "numba" else None
-        self._passes = 0
+        self._memo_sizes = (0, 0, 0)
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -291,15 +291,14 @@ class Loss:
                              label: np.ndarray) -> "Neighbourhood":
         """:meth:`neighbours` in one compiled call (:func:`compiled.neighbourhood`): the same
         classes, hits and permutations, without the array glue between the steps."""
-        self._passes += 1
-        if self._passes % 64 == 0:      # (a typed dict's len costs a call into numba: not every pass)
-            if len(self._state_memo) > 200_000:
-                self._state_memo = compiled.new_state_memo()
-            if len(self._intern[1]) > 500_000 or len(self._pair_memo) > 4_000_000:
-                self._intern = compiled.new_intern()
-                self._pair_memo = compiled.new_memo()
-        fields = compiled.neighbourhood(u, b, lock.astype(np.int64, copy=False), label.astype(np.int64, copy=False),
-                                        self._state_memo, *self._intern, self._pair_memo, self._order_cache)
+        states, classes, pairs = self._memo_sizes      # bounded memory: memos start afresh (same results)
+        if states > 200_000:
+            self._state_memo = compiled.new_state_memo()
+        if classes > 500_000 or pairs > 4_000_000:
+            self._intern, self._pair_memo = compiled.new_intern(), compiled.new_memo()
+        *fields, self._memo_sizes = compiled.neighbourhood(
+            u, b, lock.astype(np.int64, copy=False), label.astype(np.int64, copy=False),
+            self._state_memo, *self._intern, self._pair_memo, self._order_cache)
         return Neighbourhood(*fields)
 
     def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:
