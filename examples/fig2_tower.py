@@ -41,6 +41,8 @@ HERE = Path(__file__).resolve().parent
 def settings(args: argparse.Namespace) -> list[tuple[str, list[str]]]:
     common = ["--methods", METHODS, "--runs", str(args.runs), "--workers", str(args.workers),
               "--seed", str(args.seed), "--evals", str(args.evals)]
+    for opt in args.planner_opt:
+        common += ["--planner-opt", opt]
     cubes = ["evaluate", "--sim", "tower", "--symbol-data", "40,80,160", "--model-traces", "3,9", *common,
              "-o", str(Path(args.out) / "cubes")]
     balls = ["evaluate", "--sim", "tower", "--sim-opt", "cubes=5", "--sim-opt", "balls=2",
@@ -58,6 +60,8 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="5 runs, 20,000 evaluations")
     ap.add_argument("--only", choices=["cubes", "balls", "fig2a"], help="run one part only")
+    ap.add_argument("--planner-opt", action="append", default=[], metavar="METHOD:KEY=VALUE",
+                    help="passed to groundsym evaluate, e.g. prada:retries=1 (repeatable)")
     ap.add_argument("--loss-check", action="store_true", help="also run examples/fig2_loss_check.py per setting")
     args = ap.parse_args()
     if args.quick:

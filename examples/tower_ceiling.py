@@ -50,9 +50,11 @@ def stacks(truth: frozenset, objects: tuple[str, ...]) -> list[list[str]]:
     return out
 
 
-def choose(truth: frozenset, objects: tuple[str, ...], failed: frozenset[str] = frozenset()) -> Atom:
-    """The scripted builder's next primitive (module docstring); ``failed``: cubes whose grasp failed."""
-    big = {a.args[0] for a in truth if a.predicate == "big"}
+def choose(truth: frozenset, objects: tuple[str, ...], failed: frozenset[str] = frozenset(),
+           size_blind: bool = False) -> Atom:
+    """The scripted builder's next primitive (module docstring); ``failed``: cubes whose grasp failed;
+    ``size_blind``: ignore which cubes are big (cubes in name order, as a planner over inhand/on)."""
+    big = set() if size_blind else {a.args[0] for a in truth if a.predicate == "big"}
     balls = {a.args[0] for a in truth if a.predicate == "ball"}
     held = [a.args[0] for a in truth if a.predicate == "inhand"]
     towers = [s for s in stacks(truth, objects) if not set(s) & balls]
@@ -68,11 +70,11 @@ def choose(truth: frozenset, objects: tuple[str, ...], failed: frozenset[str] = 
     return Atom("closeHandAround", (free[0],))
 
 
-def episode(sim: TowerSim, seed: int) -> float:
+def episode(sim: TowerSim, seed: int, size_blind: bool = False) -> float:
     scene = sim.reset(seed)
     value, failed = 0.0, set()
     for t in range(EPISODE_LENGTH):
-        action = choose(scene.truth, sim.objects, frozenset(failed))
+        action = choose(scene.truth, sim.objects, frozenset(failed), size_blind)
         scene = sim.step(action)
         if action.predicate == "closeHandAround":
             grasped = Atom("inhand", action.args) in scene.truth
@@ -87,13 +89,14 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0, help="first start-state seed (then seed+1, ...)")
     ap.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--out", type=Path, default=None, help="write ceiling.json here")
+    ap.add_argument("--size-blind", action="store_true", help="the builder does not know which cubes are big")
     args = ap.parse_args()
     opts = split_key_values(args.sim_opt, "--sim-opt")
     best = optimal_episode_value({k: v for k, v in opts.items() if k != "noise"})
     with TowerSim(**opts) as sim:
         values = []
         for k in range(args.episodes):
-            values.append(episode(sim, args.seed + k))
+            values.append(episode(sim, args.seed + k, args.size_blind))
             print(f"episode {k + 1}/{args.episodes}: V = {values[-1]:.5f} ({values[-1] / best:.1%} of V*)",
                   file=sys.stderr, flush=True)
         noise = sim.options["noise"]

@@ -118,15 +118,18 @@ def config_key(args: argparse.Namespace) -> str:
     cfg["reward_chain"] = None if args.reward_chain == 3 else args.reward_chain     # keys of the first runs
     if args.learn_opt:
         cfg["learn_opt"] = args.learn_opt
+    if args.untied:
+        cfg["untied"] = True
     return hashlib.sha256(json.dumps(cfg, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def learn(sym: TruthSymbols, traces: list, info: Dataset, k: int, options: LearnOptions, chain: int) -> tuple:
+def learn(sym: TruthSymbols, traces: list, info: Dataset, k: int, options: LearnOptions, chain: int,
+          tie: bool = True) -> tuple:
     """Rules and reward of model ``k``, as ``groundsym learn`` fits them (seed ``k``)."""
     ds = Dataset(traces, info.feature_names, dict(info.primitives), dict(info.meta))
     sds = sym.to_symbolic_dataset(ds)
     rules, _ = learn_rules(examples_from_dataset(sds), sds.predicates, options, seed=k, progress=False)
-    return ds, sds, rules, fit_reward(sds, seed=k, chain=chain)
+    return ds, sds, rules, fit_reward(sds, seed=k, chain=chain, tie_chains=tie)
 
 
 def main() -> int:
@@ -140,6 +143,8 @@ def main() -> int:
     ap.add_argument("--planner-opt", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--reward-chain", type=int, default=3, help="longest on-chain feature of the reward (default 3)")
     ap.add_argument("--learn-opt", default="", help="rule learner options KEY=VALUE,... (LearnOptions fields)")
+    ap.add_argument("--untied", action="store_true", help="reward without the tied path column "
+                    "(fit_reward tie_chains=False, the reward model before it)")
     ap.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
@@ -160,7 +165,7 @@ def main() -> int:
         if all((m, k) in done for k in range(args.starts)):
             continue
         group = traces[m * args.traces:(m + 1) * args.traces]
-        ds, sds, rules, reward = learn(sym, group, info, m, learn_opts, args.reward_chain)
+        ds, sds, rules, reward = learn(sym, group, info, m, learn_opts, args.reward_chain, not args.untied)
         model = PlanningModel(dict(sim.primitives), predicates=dict(sym.predicates), symbols=sym,
                               rules=rules, reward=reward, traces=ds, symbolic_traces=sds, gamma=float(sim.gamma))
         for k in range(args.starts):
@@ -193,7 +198,7 @@ def summarise(rows: list[dict], args: argparse.Namespace, best: float) -> int:
     atomic_write_json(args.out / "summary.json", {
         "traces": args.traces, "pool_seeds": args.pool_seeds, "starts": args.starts,
         "planner_opt": args.planner_opt, "sim_opt": args.sim_opt, "reward_chain": args.reward_chain,
-        "learn_opt": args.learn_opt,
+        "learn_opt": args.learn_opt, "untied": args.untied,
         "episodes": len(rows), "mean_share": float(share.mean()), "stderr": se, "optimum": best,
         "totals": tot, "mean_loglik": float(np.mean([r["mean_loglik"] for r in rows]))})
     return 0

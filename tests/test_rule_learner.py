@@ -9,12 +9,13 @@ import pytest
 
 from examples.rule_recovery import (KNOWN, REFERENCE, NIDSource, PPDDLSource, canonical_context, recover,
                                      simulate, sources)
-from groundsym.logic import parse_literal
+from groundsym.logic import Atom, parse_literal
 from groundsym.rules.coverage import ExampleTable
 from groundsym.rules.evaluate import score_ruleset
 from groundsym.rules.io import read_rules
 from groundsym.rules.model import Outcome, with_derived
 from conftest import DATA
+from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace
 from groundsym.rules.learner import ActionLearner, LearnOptions, examples_from_dataset, learn_rules
 
 
@@ -229,3 +230,29 @@ def test_derived_predicates_let_the_learner_say_that_a_grasp_lifts_a_cube_off_an
             if derived:
                 assert sorted(map(canonical_context, rs.rules)) == sorted(map(canonical_context, true.rules))
         assert gaps[True] < 0.01 and gaps[False] > 1.0, gaps
+
+
+def test_a_reference_through_a_negated_literal_names_the_held_cube():
+    """A learned unary symbol is often the negation of inhand (true of every cube not in the hand).
+    The held cube is then "the one object that is not u1", a reference only a negated literal
+    binds; the release rule needs it to say where the held cube goes. Data: the hand-written tower
+    over inhand/on, with inhand replaced by its negation u1."""
+    def negate(ds):
+        traces = [SymbolicTrace(tr.objects, [frozenset({a for a in s if a.predicate == "on"} |
+                                                       {Atom("u1", (o,)) for o in tr.objects if Atom("inhand", (o,)) not in s})
+                                             for s in tr.states], tr.actions, tr.rewards) for tr in ds.traces]
+        return SymbolicDataset(traces, {"u1": 1, "on": 2}, ds.primitives)
+
+    _, train = tower_over_inhand_on(1000, 0)
+    _, test = tower_over_inhand_on(2000, 99)
+    train, test = negate(train), negate(test)
+    rs, _ = learn_rules(examples_from_dataset(train), train.predicates, LearnOptions(), seed=0, progress=False)
+    release = [r for r in rs.rules if r.action.predicate == "openHandOver" and parse_literal("(not (u1 ?y1))") in r.context]
+    assert len(release) == 1 and all(not l.positive for l in release[0].context if "?y1" in l.atom.args)
+    best = max(zip(release[0].probs, release[0].outcomes))[1]
+    assert set(map(str, best.changes)) == {"(on ?y1 ?x1)", "(u1 ?y1)"}
+    # within a tenth of a nat of the true model over inhand (an empty hand, "every cube is u1",
+    # has no derived predicate here, so the full-hand grasps are the default rule's)
+    true, _ = read_rules(DATA / "nid_tower_derived.rules.json")
+    _, raw = tower_over_inhand_on(2000, 99)
+    assert score_ruleset(true, raw).mean_log_likelihood - score_ruleset(rs, test).mean_log_likelihood < 0.1

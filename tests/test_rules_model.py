@@ -255,3 +255,33 @@ def test_derived_predicates_round_trip_and_are_validated(tmp_path):
     doc["derived"][2]["keep"] = [0, 1]
     with pytest.raises(UserError, match=r"derived\[2\].keep: expected at most one argument position"):
         doc_to_rules(doc, "m/rules.json")
+
+
+def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():
+    """A derived literal is written as (not (exists ...)); the exported domain, run by the PPDDL
+    simulator, gives every random state and primitive the rule set's successor distribution."""
+    from groundsym.ppddl.convert import rules_to_domain
+    from groundsym.ppddl.simulate import Task
+
+    rs, meta = read_rules(DATA / "nid_tower_derived.rules.json")
+    domain = rules_to_domain(rs, meta["predicates"], "tower-derived")
+    objects = ["o1", "o2", "o3", "o4"]
+    task = Task(domain, objects)
+    ground = sorted(Atom(p, args) for p, k in meta["predicates"].items() for args in permutations(objects, k))
+    rng = np.random.default_rng(0)
+    covered = 0
+    for _ in range(150):
+        s = frozenset(a for a in ground if rng.random() < rng.choice([0.1, 0.2, 0.35]))
+        for prim in task.primitive_actions():
+            r, b = rs.covering(s, prim, objects)
+            want = {s: 1.0} if r is None else {}
+            for o, p in zip(r.outcomes, r.probs) if r is not None else ():
+                want[o.apply(s, b)] = want.get(o.apply(s, b), 0.0) + p
+            got: dict = {}
+            for x in task.distribution(s, prim):
+                got[x.state] = got.get(x.state, 0.0) + x.prob
+            got = got or {s: 1.0}
+            assert got.keys() == want.keys() and all(got[k] == pytest.approx(want[k], abs=1e-12) for k in got), \
+                (sorted(map(str, s)), prim)
+            covered += r is not None
+    assert covered > 150

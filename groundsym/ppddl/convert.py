@@ -128,7 +128,18 @@ def _fresh(base: str, taken: set[str], count: int) -> list[str]:
     return out
 
 
+_DERIVED: dict = {}     # name -> groundsym.rules.model.Derived of the rule set rules_to_domain writes
+
+
 def _lit(l: Literal) -> Formula:
+    d = _DERIVED.get(l.atom.predicate)
+    if d is not None:        # (no-on-1 ?x) -> (not (exists (?derived-z1) (on ?x ?derived-z1)))
+        zs = [f"?derived-z{i + 1}" for i in range(d.base_arity - d.arity)]
+        args, it = [], iter(zs)
+        for i in range(d.base_arity):
+            args.append(l.atom.args[d.keep.index(i)] if i in d.keep else next(it))
+        some = Exists(tuple(Typed(z) for z in zs), Atom(d.base, tuple(args)))
+        return some if not l.positive else Not(some)
     return l.atom if l.positive else Not(l.atom)
 
 
@@ -295,13 +306,18 @@ def rules_to_domain(rules: RuleSet, predicates: Mapping[str, int], name: str = "
     for r in rules.rules:
         by_prim.setdefault(r.action.predicate, []).append(r)
     actions = []
-    for prim, rs in by_prim.items():
-        for k, r in enumerate(rs, 1):
-            a = rule_to_action(r, k, [o for o in rs if o is not r], noise, rules.injective, decimals, simple)
-            if a is not None and not (drop_no_change and a.effect == NO_EFFECT):
-                actions.append(a)
-            elif dropped is not None:
-                dropped.append(f"{prim}_r{k}")
+    _DERIVED.clear()
+    _DERIVED.update({d.name: d for d in getattr(rules, "derived", ())})   # written as (not (exists ...))
+    try:
+        for prim, rs in by_prim.items():
+            for k, r in enumerate(rs, 1):
+                a = rule_to_action(r, k, [o for o in rs if o is not r], noise, rules.injective, decimals, simple)
+                if a is not None and not (drop_no_change and a.effect == NO_EFFECT):
+                    actions.append(a)
+                elif dropped is not None:
+                    dropped.append(f"{prim}_r{k}")
+    finally:
+        _DERIVED.clear()
     preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(n)), (comments or {}).get(p, ""))
              for p, n in sorted(predicates.items())]
     if noise == "pessimistic":

@@ -337,6 +337,11 @@ class ActionLearner:
                 return None
             trial = dict(sigma, **{c: f"?y{len(sigma) - len(self.action.args) + 1}"})
             lits = [l for l in _lift_atoms(state, trial, positive=True) if trial[c] in l.atom.args]
+            if not (lits and _unique(state, ex, self.action, ctx | set(lits), self.opts.injective)):
+                # a negated reference: "the one object that is not u1" (the held cube, when a learned
+                # u1 is the negation of inhand), with the positive links if there are any
+                lits += [l for l in _absent_literals(state, trial, self.table.predicates, self.opts.injective)
+                         if trial[c] in l.atom.args]
             if lits and _unique(state, ex, self.action, ctx | set(lits), self.opts.injective):
                 sigma, ctx = trial, ctx | set(lits)
             else:
@@ -438,7 +443,7 @@ class ActionLearner:
             vars_ = (*f.rule.variables, v)
             atoms = [a for a in _atoms_over(vars_, self.table.predicates, self.opts.injective) if v in a.args]
             ctx = set(f.rule.context)
-            yield from self._replace(R, k, (ctx | {Literal(a, True)} for a in atoms))
+            yield from self._replace(R, k, (ctx | {Literal(a, sign)} for a in atoms for sign in (True, False)))
 
     def split_on_lits(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
         for k, f in enumerate(R):
@@ -512,13 +517,14 @@ def _deictic(ctx: Iterable[Literal], action: Atom) -> list[str]:
 
 
 def _valid_context(ctx: tuple[Literal, ...], action: Atom, max_deictic: int) -> bool:
-    """No contradictions, no deictic reference that only negated literals mention, few references."""
+    """No contradictions, few references. A reference that only negated literals mention is allowed
+    ("the one object that is not u1"): under the closed world and the exactly-one-binding rule it
+    names an object as well as a positive one does (Pasula et al. allow negated literals in
+    deictic references)."""
     atoms = {l.atom for l in ctx}
     if len(atoms) != len(ctx):
         return False
-    pos_vars = {a for l in ctx if l.positive for a in l.atom.args}
-    deictic = _deictic(ctx, action)
-    return len(deictic) <= max_deictic and all(v in pos_vars for v in deictic)
+    return len(_deictic(ctx, action)) <= max_deictic
 
 
 def _lift_atoms(state: frozenset, sigma: dict[str, str], positive: bool) -> list[Literal]:

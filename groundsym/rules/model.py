@@ -258,7 +258,7 @@ def _bindings(context: tuple[Literal, ...], state: frozenset, base: dict[str, st
     count = 0
 
     def check_rest(b: dict[str, str]) -> Iterator[dict[str, str]]:
-        # variables only in negated literals (not allowed in learned rules, but tolerated): enumerate
+        # variables only in negated literals ("the one object that is not u1"): enumerate
         extra = sorted(unbound_neg_only)
         used = set(b.values())
         pool = [o for o in universe if not (injective and o in used)]
