@@ -390,10 +390,10 @@ def test_stacking_succeeds_in_most_trials_at_default_noise():
 
 @pytest.mark.slow
 def test_a_held_cube_keeps_its_pose_in_the_hand():
-    """Over 100 pick-and-places at the default noise, the held cube's rotation in the hand's frame,
-    from the moment it is grasped to its release, the largest at any physics step of the hold (a
-    turn that comes back when the fingers open counts too): 95th percentile under 2 deg, maximum
-    under 5 deg."""
+    """Over 100 grasps of pick-and-places at the default noise (seeds from 0 until 100 cubes were
+    grasped), the held cube's rotation in the hand's frame, from the moment it is grasped to its
+    release, the largest at any physics step of the hold (a turn that comes back when the fingers
+    open counts too): 95th percentile under 2 deg, maximum under 5 deg."""
     turns: list[float] = []
     with TowerSim() as sim:
         w = sim.world
@@ -427,18 +427,19 @@ def test_a_held_cube_keeps_its_pose_in_the_hand():
             release()
 
         w.attach, w.step, w.release = watched_attach, watched_step, watched_release
-        held = 0
-        for seed in range(100):
+        held = seed = 0
+        while len(turns) < 100 and seed < 120:
             sim.reset(seed)
             a, b = any_two_cubes(sim, seed)
             sim.step(A("closeHandAround", a))
             held += w.held is not None
             sim.step(A("openHandOver", b))
+            seed += 1
     turns_deg = np.array(turns)
-    print(f"in-hand rotation over {len(turns_deg)} grasps ({held} held after the grasp primitive): median "
-          f"{np.median(turns_deg):.3f}, 95th percentile {np.percentile(turns_deg, 95):.3f}, "
+    print(f"in-hand rotation over {len(turns_deg)} grasps in {seed} pick-and-places ({held} held after the grasp "
+          f"primitive): median {np.median(turns_deg):.3f}, 95th percentile {np.percentile(turns_deg, 95):.3f}, "
           f"max {turns_deg.max():.3f} deg")
-    assert held >= 90 and len(turns_deg) >= held
+    assert len(turns_deg) >= 100 and held >= 0.9 * seed and len(turns_deg) >= held
     assert np.percentile(turns_deg, 95) < 2.0 and turns_deg.max() < 5.0
 
 
