@@ -31,6 +31,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -83,6 +84,45 @@ def _ppid(d: Path) -> int:
         return -1
 
 
+class Sampler:
+    """CPU time of every descendant of this process, read from /proc every ``every`` seconds and
+    summed over processes at their last reading: counts Ray's processes whether or not anyone
+    reaps them (loses at most ``every`` seconds of each process's last moments)."""
+
+    def __init__(self, every: float = 1.0) -> None:
+        self.every, self.last, self._stop = every, {}, threading.Event()
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        tick = os.sysconf("SC_CLK_TCK")
+        while not self._stop.is_set():
+            stats = {}
+            for d in Path("/proc").iterdir():
+                if d.name.isdigit():
+                    try:
+                        f = (d / "stat").read_text().rsplit(")", 1)[1].split()
+                    except OSError:
+                        continue
+                    stats[int(d.name)] = (int(f[1]), int(f[19]), (int(f[11]) + int(f[12])) / tick)  # ppid, start, cpu
+            mine, grew = {os.getpid()}, True
+            while grew:
+                new = {p for p, (pp, _, _) in stats.items() if pp in mine} - mine
+                mine |= new
+                grew = bool(new)
+            for p in mine - {os.getpid()}:
+                self.last[(p, stats[p][1])] = stats[p][2]
+            self._stop.wait(self.every)
+
+    def total(self) -> float:
+        return sum(self.last.values())
+
+    def stop(self) -> float:
+        self._stop.set()
+        self._thread.join()
+        return self.total()
+
+
 def cpu_of_children() -> float:
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     return ru.ru_utime + ru.ru_stime
@@ -94,6 +134,7 @@ def run(executor: str, workers: int, args: list[str], out: Path) -> dict:
     cmd = [sys.executable, "-m", "groundsym.cli", "evaluate", *args, "--workers", str(workers),
            "--executor", executor, "-o", str(out)]
     cpu0, t0, load0 = cpu_of_children(), time.monotonic(), os.getloadavg()[0]
+    sampler = Sampler()
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     seen = []                      # (time, done, total, eta)
     first = None
@@ -109,9 +150,11 @@ def run(executor: str, workers: int, args: list[str], out: Path) -> dict:
         raise SystemExit(f"{executor}: evaluate failed:\n" + "\n".join(tail))
     end, load1 = time.monotonic(), os.getloadavg()[0]
     lingering = reap_all(LINGER)
+    sampled = sampler.stop()
     half = next(((t, d, n, eta) for t, d, n, eta in seen if 0 < d < n and d >= n / 2), None)
     units = [json.loads(p.read_text())["seconds"] for p in sorted((out / "runs").glob("*.json"))]
-    return {"executor": executor, "wall": end - t0, "cpu": cpu_of_children() - cpu0, "lingering": lingering,
+    return {"executor": executor, "wall": end - t0, "cpu": max(cpu_of_children() - cpu0, sampled),
+            "cpu_reaped": cpu_of_children() - cpu0, "cpu_sampled": sampled, "lingering": lingering,
             "startup": (first or end) - t0, "load": (load0 + load1) / 2,
             "half": {"done": half[1], "total": half[2], "elapsed": half[0] - t0} if half else None,
             "eta_at_half": half[3] if half else None, "left_at_half": end - half[0] if half else None,
@@ -131,6 +174,8 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=2, help="pairs of runs (default 2)")
     ap.add_argument("--workers", type=int, default=2, help="processes, and the CPUs of the local Ray (default 2)")
     ap.add_argument("--json", type=Path, default=None, help="also write every run's figures here")
+    ap.add_argument("--executors", default="processes,ray", help="which runs a round makes, in order "
+                    "(default processes,ray)")
     ap.add_argument("evaluate", nargs="*", help="evaluate's options after -- (default: the small evaluation)")
     opts = ap.parse_args()
     args = opts.evaluate or DEFAULT
@@ -141,19 +186,21 @@ def main() -> int:
         warm = run("processes", 1, WARM, Path(tmp) / "warm-up")
         print(f"warm-up (numba's disk cache): {warm['wall']:.1f} s wall, {warm['cpu']:.1f} CPU s", flush=True)
         for r in range(opts.rounds):
-            for executor in ("processes", "ray"):
+            for executor in opts.executors.split(","):
                 got = run(executor, opts.workers, args, Path(tmp) / f"{executor}-{r}")
                 runs.append(got)
                 eta = (f"ETA at {got['half']['done']}/{got['half']['total']} units {got['eta_at_half']:.0f} s, "
                        f"actually left {got['left_at_half']:.0f} s ({got['eta_at_half'] / got['left_at_half'] - 1:+.0%})"
                        if got["half"] else "no progress line at half way")
                 left = f"; {got['lingering']} process(es) not ended, CPU undercounted" if got["lingering"] else ""
-                print(f"round {r + 1} {executor:9s}: {got['wall']:7.1f} s wall, {got['cpu']:7.1f} CPU s, load "
+                print(f"round {r + 1} {executor:9s}: {got['wall']:7.1f} s wall, {got['cpu']:7.1f} CPU s (reaped "
+                      f"{got['cpu_reaped']:.1f}, sampled {got['cpu_sampled']:.1f}), load "
                       f"{got['load']:.1f}, first progress line after {got['startup']:.1f} s; {eta}{left}", flush=True)
     for key, what in (("wall", "wall"), ("cpu", "CPU")):
-        p = statistics.median(g[key] for g in runs if g["executor"] == "processes")
-        q = statistics.median(g[key] for g in runs if g["executor"] == "ray")
-        print(f"median {what}: processes {p:.1f} s, local Ray {q:.1f} s; Ray / processes = {q / p:.3f}")
+        if {g["executor"] for g in runs} == {"processes", "ray"}:
+            p = statistics.median(g[key] for g in runs if g["executor"] == "processes")
+            q = statistics.median(g[key] for g in runs if g["executor"] == "ray")
+            print(f"median {what}: processes {p:.1f} s, local Ray {q:.1f} s; Ray / processes = {q / p:.3f}")
     identical = all(same(runs[0]["results"], g["results"]) for g in runs)
     print(f"results.json identical (less the command line) in all {len(runs)} runs: {identical}")
     if opts.json:
