@@ -8,8 +8,9 @@ the data shows the difference (diagnosis only: it reads the truth, which learnin
     python examples/tower_outcomes.py results/balls/data/train_1.json [more traces files]
 
 Prints, per file, the grasps (of cubes and balls: succeeded / tried) and the releases with an object
-in the hand (held kind over target kind: on the target afterwards / tried), and how many releases
-were over a ball (where ``ball`` changes the prediction).
+in the hand (held kind over target kind: on the target afterwards / tried), the same for a clear
+target alone (nothing on it; a pick-and-place's two halves, as docs/tower.md measures them), and
+how many releases were over a ball (where ``ball`` changes the prediction).
 """
 
 from __future__ import annotations
@@ -37,12 +38,17 @@ def outcomes(ds: Dataset) -> Counter:
             balls = {a.args[0] for a in pre.truth if a.predicate == "ball"}
             held = [a.args[0] for a in pre.truth if a.predicate == "inhand"]
             target = action.args[0]
+            clear = any(a.predicate == "clear" and a.args == (target,) for a in pre.truth)
             if action.predicate == "openHandOver" and held:
                 stacked = any(a.predicate == "on" and a.args == (held[0], target) for a in post.truth)
                 counts[(f"{KIND[held[0] in balls]} over {KIND[target in balls]}", stacked)] += 1
+                if clear and held[0] != target:
+                    counts[(f"{KIND[held[0] in balls]} over clear {KIND[target in balls]}", stacked)] += 1
             elif action.predicate == "closeHandAround" and not held:
                 grasped = any(a.predicate == "inhand" and a.args[0] == target for a in post.truth)
                 counts[(f"grab {KIND[target in balls]}", grasped)] += 1
+                if clear:
+                    counts[(f"grab clear {KIND[target in balls]}", grasped)] += 1
     return counts
 
 
