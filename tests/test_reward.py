@@ -152,3 +152,22 @@ def test_tied_chains_value_taller_towers_the_data_never_showed():
         assert tied.predict(s, objs) == pytest.approx(0.01 * above_pairs(s), abs=2e-4)
         assert plain.predict(s, objs) < 0.01 * above_pairs(s) - 0.005
     assert tied.fit["path_columns"] == 1
+
+
+def test_chain_counts_by_matrix_products_equal_the_enumerated_groundings():
+    """Chains of two and three atoms are counted by matrix products (inclusion-exclusion of walks
+    that visit an object twice); the count equals the sum over injective groundings, for random
+    marginals (cycles and a non-zero diagonal included) and 2-7 objects."""
+    from groundsym.reward import _chain_count
+
+    rng = np.random.default_rng(0)
+    for m in (2, 3, 4, 5, 7):
+        P = rng.random((4, m, m))
+        for n in (2, 3):
+            want = [sum(np.prod([P[k, t[i], t[i + 1]] for i in range(n)]) for t in permutations(range(m), n + 1))
+                    for k in range(4)]
+            np.testing.assert_allclose(_chain_count(P, n), want, rtol=1e-10, atol=1e-12)
+    feats = {str(f): f for f in candidate_features(PREDS)}
+    s = st("(b1 a b)", "(b1 b c)", "(b1 c d)", "(b1 d a)")          # a 4-cycle: 4 chains of 3
+    assert model_with({"#(?a ?b ?c ?d): (b1 ?a ?b) (b1 ?b ?c) (b1 ?c ?d)": 1.0}).predict(s, ("a", "b", "c", "d")) == 4
+    assert "#(?a ?b ?c): (b1 ?a ?b) (b1 ?b ?c)" in feats
