@@ -285,3 +285,11 @@ def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():
                 (sorted(map(str, s)), prim)
             covered += r is not None
     assert covered > 150
+    # and read back: the same contexts, the derived literals and their definitions included
+    from groundsym.ppddl.convert import domain_to_rules
+    from groundsym.ppddl.parser import parse_domain
+
+    back = domain_to_rules(parse_domain(str(domain), "<export>"))
+    assert {(r.action, r.context) for r in rs.rules} <= {(r.action, r.context) for r in back.rules}
+    assert back.derived == rs.derived
+    assert "(no-on-1" not in str(domain) and "(not (exists (?derived-z1) (on ?x1 ?derived-z1)))" in str(domain)

@@ -318,8 +318,9 @@ def rules_to_domain(rules: RuleSet, predicates: Mapping[str, int], name: str = "
                     dropped.append(f"{prim}_r{k}")
     finally:
         _DERIVED.clear()
+    derived = {d.name for d in getattr(rules, "derived", ())}      # written out, not declared
     preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(n)), (comments or {}).get(p, ""))
-             for p, n in sorted(predicates.items())]
+             for p, n in sorted(predicates.items()) if p not in derived]
     if noise == "pessimistic":
         preds.append(Predicate(NOISE_PREDICATE, (), "a rule's noise outcome happened: a dead end"))
     domain = Domain(name, (), (), (), tuple(preds), tuple(actions), comment)
@@ -410,7 +411,10 @@ def _context_of(action: Action, where: str) -> list[Literal]:
     names = [p.name for p in action.parameters]
     context: list[Literal] = []
     for c in _split_exclusions(action)[0]:
-        if isinstance(c, Atom) and c.predicate != "=":
+        derived = _derived_literal(c)
+        if derived is not None:
+            context.append(derived)
+        elif isinstance(c, Atom) and c.predicate != "=":
             context.append(Literal(c, True))
         elif isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate != "=":
             if c.arg.predicate != NOISE_PREDICATE:
@@ -422,6 +426,33 @@ def _context_of(action: Action, where: str) -> list[Literal]:
         else:
             raise UserError(f"{where}: precondition is outside the rule subset (a conjunction of literals)")
     return context
+
+
+_READ_DERIVED: dict = {}   # name -> Derived of the derived literals read back (same name, same definition)
+
+
+def _derived_literal(c: Formula) -> Literal | None:
+    """``(not (exists (?derived-z1) (on ?x ?derived-z1)))`` as written by :func:`_lit`, read back
+    as ``(no-on-1 ?x)`` (``(exists ...)``: its negation); None for any other formula."""
+    from ..rules.model import Derived
+
+    positive = isinstance(c, Not)
+    e = c.arg if positive else c
+    if not isinstance(e, Exists) or not isinstance(e.body, Atom):
+        return None
+    zs = {t.name for t in e.params}
+    if not all(z.startswith("?derived-z") for z in zs):
+        return None
+    atom = e.body
+    keep = tuple(i for i, a in enumerate(atom.args) if a not in zs)
+    if atom.arity == 1 and not keep:
+        d = Derived(f"no-{atom.predicate}", atom.predicate, 1, ())
+    elif atom.arity == 2 and len(keep) == 1:
+        d = Derived(f"no-{atom.predicate}-{keep[0] + 1}", atom.predicate, 2, keep)
+    else:
+        return None
+    _READ_DERIVED[d.name] = d
+    return Literal(Atom(d.name, tuple(atom.args[i] for i in keep)), positive)
 
 
 def _subset_rule(action: Action, where: str, context: list[Literal]) -> Rule:
@@ -649,7 +680,9 @@ def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
     rules += _coinciding_rules(domain)
     rules += _blocking_rules(domain, rules)
     prims = sorted({r.action.predicate for r in rules})
-    return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims))
+    named = {l.atom.predicate for r in rules for l in r.context}
+    derived = tuple(sorted(d for n, d in _READ_DERIVED.items() if n in named))
+    return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims), derived=derived)
 
 
 def _coinciding_rules(domain: Domain) -> list[Rule]:
