@@ -248,13 +248,26 @@ def test_derived_predicates_round_trip_and_are_validated(tmp_path):
     assert back == rs and [d.name for d in back.derived] == ["no-inhand", "no-on-1", "no-on-2"]
     assert "derived: (no-on-1 ?x) holds when no (on ?x _) does" in rules_to_text(back)
     doc = json.loads((DATA / "nid_tower_derived.rules.json").read_text())
-    doc["derived"][1]["base"] = "under"
-    with pytest.raises(UserError, match=r"^m/rules.json: derived\[1\].base: 'under' is not a declared predicate"):
+    doc["derived"][1]["holds_when_no"] = "(under ?x _)"
+    with pytest.raises(UserError, match=r"^m/rules.json: derived\[1\].holds_when_no: 'under' is not a declared predicate"):
         doc_to_rules(doc, "m/rules.json")
     doc = json.loads((DATA / "nid_tower_derived.rules.json").read_text())
-    doc["derived"][2]["keep"] = [0, 1]
-    with pytest.raises(UserError, match=r"derived\[2\].keep: expected at most one argument position"):
+    doc["derived"][2]["holds_when_no"] = "(on ?x ?x)"
+    with pytest.raises(UserError, match=r"derived\[2\].holds_when_no: expected an atom over \?x \(at most once\)"):
         doc_to_rules(doc, "m/rules.json")
+
+
+def test_renaming_a_base_predicate_renames_its_derived_predicates(tmp_path):
+    """``groundsym rename`` rewrites atom texts: the derived definitions are atom texts too."""
+    from groundsym.ppddl.names import write_renamed
+
+    src = tmp_path / "m"
+    src.mkdir()
+    (src / "rules.json").write_text((DATA / "nid_tower_derived.rules.json").read_text())
+    write_renamed(src, tmp_path / "r", {"on": "stacked"})
+    rs, _ = read_rules(tmp_path / "r" / "rules.json")
+    assert {d.base for d in rs.derived} == {"inhand", "stacked"}
+    assert rs.covering(state("(stacked a b)"), parse_atom("(closeHandAround a)"), ("a", "b", "c"))[0] is rs.rules[1]
 
 
 def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():

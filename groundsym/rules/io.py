@@ -36,9 +36,8 @@ def rules_to_doc(rs: RuleSet, *, predicates: Mapping[str, int] | None = None,
     doc["p_min"] = rs.p_min
     doc["p_min_default"] = rs.p_min_default
     doc["injective"] = rs.injective
-    if rs.derived:
-        doc["derived"] = [{"name": d.name, "base": d.base, "base_arity": d.base_arity, "keep": list(d.keep)}
-                          for d in rs.derived]
+    if rs.derived:       # "(on ?x _)": holds for ?x when no such atom does (an atom text: rename renames it)
+        doc["derived"] = [{"name": d.name, "holds_when_no": _derived_text(d)} for d in rs.derived]
     if options:
         doc["options"] = dict(options)
     doc["defaults"] = [{"action": a, "p_noise": d.p_noise} for a, d in rs.defaults]
@@ -132,18 +131,26 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective, derived), meta
 
 
+def _derived_text(d: Derived) -> str:
+    args = ["?x" if i in d.keep else "_" for i in range(d.base_arity)]
+    return f"({d.base} {' '.join(args)})"
+
+
 def _derived(f: _Fields, d: Any, field: str, preds: Mapping[str, int] | None) -> Derived:
     name = f.get(d, "name", field, str)
-    base = f.get(d, "base", field, str)
-    arity = f.get(d, "base_arity", field, int)
-    keep = f.get(d, "keep", field, list)
-    if preds is not None and preds.get(base) != arity:
-        raise f.fail(f"{field}.base", f"{base!r} is not a declared predicate of arity {arity}")
+    text = f.get(d, "holds_when_no", field, str)
+    try:
+        atom = parse_atom(text)
+    except ValueError as exc:
+        raise f.fail(f"{field}.holds_when_no", str(exc)) from None
+    keep = tuple(i for i, a in enumerate(atom.args) if a == "?x")
+    if any(a not in ("?x", "_") for a in atom.args) or len(keep) > 1 or not atom.args:
+        raise f.fail(f"{field}.holds_when_no", f"expected an atom over ?x (at most once) and _, got {text!r}")
+    if preds is not None and preds.get(atom.predicate) != atom.arity:
+        raise f.fail(f"{field}.holds_when_no", f"{atom.predicate!r} is not a declared predicate of arity {atom.arity}")
     if preds is not None and name in preds:
         raise f.fail(f"{field}.name", f"{name!r} is a declared predicate")
-    if len(keep) > 1 or not all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < arity for k in keep):
-        raise f.fail(f"{field}.keep", f"expected at most one argument position in [0, {arity}), got {keep!r}")
-    return Derived(name, base, arity, tuple(keep))
+    return Derived(name, atom.predicate, atom.arity, keep)
 
 
 def _arities(f: _Fields, doc: dict, key: str) -> dict[str, int] | None:
