@@ -9,6 +9,9 @@ ground-truth atom, and which features trip the rule where the objects' positions
 features) did not move by that much::
 
     python examples/perception_changes.py POSE/train_1.json PC/train_1.json [--change-tol 0.05 0.2]
+
+On point-cloud files it also prints how well ``sphere_rms`` and ``sphere_curvature`` tell balls from
+the other objects over all their seen views.
 """
 
 from __future__ import annotations
@@ -42,6 +45,29 @@ def changes(path: Path, tol: float) -> dict:
                                   for k, name in enumerate(ds.feature_names[3:], 3)}}
 
 
+def roundness(paths: list[Path]) -> str | None:
+    """On point-cloud traces: the range of ``sphere_rms`` and ``sphere_curvature`` over the seen
+    views of balls and of the other objects (by the truth), and how many of each lie in the box
+    ``sphere_rms`` under 1 mm and ``sphere_curvature`` over 40 1/m."""
+    balls, others = [], []
+    for path in paths:
+        ds = read_traces(path)
+        if "sphere_rms" not in ds.feature_names:
+            return None
+        cols = [ds.feature_names.index("sphere_rms"), ds.feature_names.index("sphere_curvature")]
+        for tr in ds.traces:
+            for sc in tr.scenes:
+                round_ = {a.args[0] for a in sc.truth if a.predicate == "ball"}
+                for o, f in zip(sc.objects, sc.features):
+                    if o not in sc.unseen:
+                        (balls if o in round_ else others).append(np.asarray(f)[cols])
+    b, o = np.array(balls), np.array(others)
+    box = lambda x: int(((x[:, 0] < 0.001) & (x[:, 1] > 40)).sum())  # noqa: E731
+    return (f"{len(b)} ball views: sphere_rms {b[:, 0].min() * 1000:.2f}-{b[:, 0].max() * 1000:.2f} mm, curvature "
+            f"{b[:, 1].min():.1f}-{b[:, 1].max():.1f} 1/m, {box(b)} in the box (rms < 1 mm, curvature > 40); "
+            f"{len(o)} other views: {box(o)} in the box, {int((o[:, 0] < 0.001).sum())} with rms < 1 mm")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("traces", type=Path, nargs="+")
@@ -55,6 +81,9 @@ def main() -> int:
                   f"{r['truth_changed']} changed the truth; changed without a truth change {r['changed_without_truth_change']}, "
                   f"truth changed but not the geometry {r['truth_change_missed']}; changed with no position moving "
                   f"{r['changed_by_later_features_only']}" + (f" (tripped by {trips})" if trips else ""))
+    line = roundness(args.traces)
+    if line:
+        print(f"roundness over the point-cloud files: {line}")
     return 0
 
 
