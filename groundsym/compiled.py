@@ -638,8 +638,7 @@ def _pinned_tables(unary, binary, lock):
     class qualifies when that holds (``pinned``); ``pin`` (C, M) marks its pinned positions,
     ``pu`` (C, M) their unary bits as a word, ``pcount`` (C, K) unary counts over the free
     positions, ``pdeg`` (C, M, L, 2) out- and in-degrees without the edges between two pinned
-    objects, ``pedge`` (C, M, M, L) the binary bits (read between pinned positions only) and
-    ``psorted`` (C, L, 2, M) the free positions' degrees sorted (the first M - pins entries used).
+    objects and ``psorted`` (C, L, 2, M) the free positions' degrees sorted (the first M - pins entries used).
     """
     c_n, m, k = unary.shape
     l = binary.shape[3]
@@ -683,11 +682,11 @@ def _pinned_tables(unary, binary, lock):
                         free[n_free] = pdeg[c, p, a, d]
                         n_free += 1
                 psorted[c, a, d, :n_free] = np.sort(free[:n_free])
-    return pinned, pin, pu, pcount, pdeg, binary, psorted
+    return pinned, pin, pu, pcount, pdeg, psorted
 
 
 @njit(cache=True)
-def _pinned_bound(pin, q, c, pu, pcount, pdeg, pedge, psorted, m):
+def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
     """A lower bound on the distance of compatible classes q and c with pinned arguments.
 
     Unary: the pinned objects' own mismatches plus per-symbol count differences of the free
@@ -710,7 +709,7 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, pedge, psorted, m):
         for y in range(m):
             if pin[q, y]:
                 for a in range(l):
-                    s += pedge[q, p, y, a] != pedge[c, p, y, a]
+                    s += binary[q, p, y, a] != binary[c, p, y, a]
         for a in range(l):
             h += abs(pdeg[q, p, a, 0] - pdeg[c, p, a, 0]) + abs(pdeg[q, p, a, 1] - pdeg[c, p, a, 1])
     for a in range(l):
@@ -749,7 +748,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hc = np.empty(4 * q_n + 4, dtype=np.int64)
     packed = np.empty(c_n, dtype=np.int64)
     mask = np.int64((1 << _DIST_SHIFT) - 1)
-    pinned, pin, pu, pcount, pdeg, pedge, psorted = _pinned_tables(unary, binary, lock)
+    pinned, pin, pu, pcount, pdeg, psorted = _pinned_tables(unary, binary, lock)
     # compatible classes (same primitive, arguments at the same positions) form groups; a query
     # looks at its own group only, in increasing class order
     grp = np.empty(c_n, dtype=np.int64)
@@ -786,7 +785,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     h += d
             lo = s + 0.5 * h
             if pinned[q]:
-                lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, pedge, psorted, m))
+                lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
             cand[n_c] = c
             cb[n_c] = lo
             n_c += 1
@@ -1114,14 +1113,7 @@ def transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes):
     partner = np.empty(cap, dtype=np.int64)
     vals = np.empty((cap, 2), dtype=np.int64)       # mispredicted literals, weight
     e = 0
-    hit_start = np.zeros(len(lone) + 1, dtype=np.int64)
-    for t in range(len(hq)):
-        hit_start[hq[t] + 1] += 1
-    for q in range(len(lone)):
-        hit_start[q + 1] += hit_start[q]
-    lone_pos = np.full(len(start) - 1, -1, dtype=np.int64)
-    for q in range(len(lone)):
-        lone_pos[lone[q]] = q
+    hit_start, lone_pos = _hit_ranges(len(lone), hq, len(start) - 1, lone)
     obj = np.empty(m, dtype=np.int64)
     for k in range(len(start) - 1):
         g0, g1 = start[k], start[k + 1]
