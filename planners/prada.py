@@ -458,7 +458,8 @@ class PradaCore:
         B = np.repeat(b0[None, :], N, axis=0)
         seqs = np.full((N, T), -1, dtype=np.int64)
         value = self.reward(B) * self.discounts[0]
-        ban = [i for i, a in enumerate(g.actions) if a in set(banned)]
+        banned = set(banned)
+        ban = [i for i, a in enumerate(g.actions) if a in banned]
         for t in range(T):
             U = rule_probabilities(g, B, self.min_prob)
             W = action_weights(g, U)
