@@ -42,7 +42,7 @@ def learned_already(model: Path, train: Path, seed: int, args: argparse.Namespac
     sys.path.insert(0, str(ROOT))
     from groundsym.anneal import AnnealConfig
     from groundsym.fileio import file_sha256
-    from groundsym.loss import LossConfig
+    from groundsym.commands.learn import loss_config
 
     try:
         doc = json.loads((model / "symbols.json").read_text())
@@ -51,7 +51,7 @@ def learned_already(model: Path, train: Path, seed: int, args: argparse.Namespac
     want = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
     prov, cfg = doc.get("provenance", {}), doc.get("config", {})
     return (prov.get("seed") == seed and prov.get("data_sha256") == file_sha256(train)
-            and cfg.get("anneal") == want.to_doc() and cfg.get("loss") == LossConfig().to_doc())
+            and cfg.get("anneal") == want.to_doc() and cfg.get("loss") == loss_config(args.loss).to_doc())
 
 
 def collect(path: Path, traces: int, seed: int, sim_opt: list[str]) -> None:
@@ -94,6 +94,8 @@ def main() -> int:
     ap.add_argument("--unary", type=int, default=1)
     ap.add_argument("--binary", type=int, default=1)
     ap.add_argument("--sim-opt", action="append", default=[])
+    ap.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
+                    help="a loss setting for groundsym learn (repeatable), e.g. reg_weight=0.5")
     ap.add_argument("--want", nargs="+", default=["inhand", "on|above"],
                     help="relations every run should ground ('a|b': either); counted per seed")
     ap.add_argument("--good", type=float, default=0.8, help="F1 at which a symbol grounds a relation")
@@ -111,6 +113,7 @@ def main() -> int:
                "--evals", str(args.evals), "--restarts", str(args.restarts), "--seed", str(seed), "--quiet"]
         if args.workers:
             cmd += ["--workers", str(args.workers)]
+        cmd += [x for kv in args.loss for x in ("--loss", kv)]
         if not learned_already(model, train, seed, args):
             sh(cmd)
         doc = json.loads(sh(["show", str(model), "--against", str(test), "--json"], quiet=True))
@@ -120,7 +123,7 @@ def main() -> int:
         for m in doc["symbols"]:
             print(f"seed {seed}: {m['symbol']} ~ {m['best_match']} ({m['argument_order']}) F1 {m['f1']:.3f}",
                   file=sys.stderr)
-    report = {"evals": args.evals, "restarts": args.restarts, "unary": args.unary, "binary": args.binary,
+    report = {"evals": args.evals, "restarts": args.restarts, "loss": args.loss, "unary": args.unary, "binary": args.binary,
               "sim_opt": args.sim_opt, "train_traces": args.train_traces, "test_traces": args.test_traces,
               "runs": rows}
     lines = ["| seed | loss | symbol | best match | order | precision | recall | F1 | negation ~ | F1 |",
