@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..logic import Atom, Literal, is_variable
-from ..rules.model import DefaultRule, Outcome, Rule, RuleSet
+from ..rules.model import DefaultRule, Derived, Outcome, Rule, RuleSet
 from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula,
                   Imply, Not, Or, Predicate, Probabilistic, RewardEffect, Typed, When)
 from .coincide import coinciding_variants
@@ -428,14 +428,10 @@ def _context_of(action: Action, where: str) -> list[Literal]:
     return context
 
 
-_READ_DERIVED: dict = {}   # name -> Derived of the derived literals read back (same name, same definition)
-
-
 def _derived_literal(c: Formula) -> Literal | None:
     """``(not (exists (?derived-z1) (on ?x ?derived-z1)))`` as written by :func:`_lit`, read back
-    as ``(no-on-1 ?x)`` (``(exists ...)``: its negation); None for any other formula."""
-    from ..rules.model import Derived
-
+    as ``(no-on-1 ?x)`` (``(exists ...)``: its negation); None for any other formula. The name is
+    the one :meth:`Derived.for_predicates` gives, so :func:`domain_to_rules` finds the definition."""
     positive = isinstance(c, Not)
     e = c.arg if positive else c
     if not isinstance(e, Exists) or not isinstance(e.body, Atom):
@@ -445,13 +441,9 @@ def _derived_literal(c: Formula) -> Literal | None:
         return None
     atom = e.body
     keep = tuple(i for i, a in enumerate(atom.args) if a not in zs)
-    if atom.arity == 1 and not keep:
-        d = Derived(f"no-{atom.predicate}", atom.predicate, 1, ())
-    elif atom.arity == 2 and len(keep) == 1:
-        d = Derived(f"no-{atom.predicate}-{keep[0] + 1}", atom.predicate, 2, keep)
-    else:
+    d = next((d for d in Derived.for_predicates({atom.predicate: atom.arity}) if d.keep == keep), None)
+    if d is None:
         return None
-    _READ_DERIVED[d.name] = d
     return Literal(Atom(d.name, tuple(atom.args[i] for i in keep)), positive)
 
 
@@ -681,7 +673,8 @@ def domain_to_rules(domain: Domain, default_noise: float = 0.0) -> RuleSet:
     rules += _blocking_rules(domain, rules)
     prims = sorted({r.action.predicate for r in rules})
     named = {l.atom.predicate for r in rules for l in r.context}
-    derived = tuple(sorted(d for n, d in _READ_DERIVED.items() if n in named))
+    arities = {p.name: len(p.params) for p in domain.predicates}
+    derived = tuple(sorted(d for d in Derived.for_predicates(arities) if d.name in named))
     return RuleSet(tuple(rules), tuple((p, DefaultRule(default_noise)) for p in prims), derived=derived)
 
 

@@ -132,6 +132,7 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
 
 
 def _derived_text(d: Derived) -> str:
+    """The base atom a derived predicate denies, ``?x`` at the kept position: ``(on ?x _)``."""
     args = ["?x" if i in d.keep else "_" for i in range(d.base_arity)]
     return f"({d.base} {' '.join(args)})"
 
@@ -207,11 +208,8 @@ def rules_to_text(rs: RuleSet, covers: Mapping[int, int] | None = None, title: s
     lines = [f"# {title or 'NID rules'}: {len(rs.rules)} rules; p_min {rs.p_min:g}, "
              f"default rule p_min {rs.p_min_default:g}", ""]
     for d in rs.derived:
-        held = ", ".join(["?x"] if d.keep else [])
-        args = ["_"] * d.base_arity
-        for k in d.keep:
-            args[k] = "?x"
-        lines.append(f"derived: ({d.name}{' ' + held if held else ''}) holds when no ({d.base} {' '.join(args)}) does")
+        head = f"({d.name} ?x)" if d.keep else f"({d.name})"
+        lines.append(f"derived: {head} holds when no {_derived_text(d)} does")
     if rs.derived:
         lines.append("")
     for i, r in enumerate(rs.rules):
