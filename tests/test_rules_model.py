@@ -267,7 +267,18 @@ def test_renaming_a_base_predicate_renames_its_derived_predicates(tmp_path):
     write_renamed(src, tmp_path / "r", {"on": "stacked"})
     rs, _ = read_rules(tmp_path / "r" / "rules.json")
     assert {d.base for d in rs.derived} == {"inhand", "stacked"}
+    # the derived predicates are renamed with their base, in the rules' contexts too
+    assert [d.name for d in rs.derived] == ["no-inhand", "no-stacked-1", "no-stacked-2"]
+    assert not any("no-on" in str(l) for r in rs.rules for l in r.context)
     assert rs.covering(state("(stacked a b)"), parse_atom("(closeHandAround a)"), ("a", "b", "c"))[0] is rs.rules[1]
+    # so the renamed model's PPDDL export reads back as its rules (it read back as no-stacked-1
+    # while the rules said no-on-1)
+    from groundsym.ppddl.convert import domain_to_rules, rules_to_domain
+    from groundsym.ppddl.parser import parse_domain
+
+    back = domain_to_rules(parse_domain(str(rules_to_domain(rs, {"inhand": 1, "stacked": 2})), "<export>"))
+    assert back.derived == rs.derived
+    assert {(r.action, r.context) for r in rs.rules} <= {(r.action, r.context) for r in back.rules}
 
 
 def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():

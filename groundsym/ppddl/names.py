@@ -17,6 +17,7 @@ from typing import Any, Mapping, Sequence
 
 from ..errors import UserError
 from ..fileio import atomic_write_json, atomic_write_text, read_json
+from ..rules.model import Derived
 
 _IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 # words that PDDL or PPDDL give a meaning, and names the exporter uses itself
@@ -98,6 +99,10 @@ def _rename_doc(doc: Any, mapping: Mapping[str, str], keys: bool = False) -> Any
                 out[k] = {mapping.get(p, p): n for p, n in v.items()}
             elif k == "provenance":
                 out[k] = v                     # the command that made the file, as it was
+            elif k == "derived" and isinstance(v, list):   # rules.json: a derived predicate's name is no atom text
+                out[k] = [dict(_rename_doc(d, mapping), name=mapping.get(d["name"], d["name"]))
+                          if isinstance(d, dict) and isinstance(d.get("name"), str) else _rename_doc(d, mapping)
+                          for d in v]
             else:
                 out[k] = _rename_doc(v, mapping)
         return out
@@ -115,9 +120,24 @@ def _rename_symbols_doc(doc: Any, mapping: Mapping[str, str]) -> Any:
 JSON_FILES = ("rules.json", "reward.json", "symbolic-traces.json")
 
 
+def with_derived_names(mapping: Mapping[str, str]) -> dict[str, str]:
+    """``mapping`` plus the derived predicates' names that follow their base predicate's
+    (``on`` -> ``stacked``: ``no-on-1`` -> ``no-stacked-1``), named as :meth:`Derived.for_predicates`
+    names them; the PPDDL export writes a derived literal through its base and reads it back under
+    that name, so a renamed model must carry the renamed name."""
+    out = dict(mapping)
+    for old, new in mapping.items():
+        for arity in (1, 2):
+            for a, b in zip(Derived.for_predicates({old: arity}), Derived.for_predicates({new: arity})):
+                out.setdefault(a.name, b.name)
+    return out
+
+
 def write_renamed(src: Path, dst: Path, mapping: Mapping[str, str]) -> None:
-    """Copies of the model files of ``src`` in ``dst`` with predicates renamed; files that hold
-    no predicate names (``traces.json``, plots) are copied as they are."""
+    """Copies of the model files of ``src`` in ``dst`` with predicates renamed (and the derived
+    predicates named after them); files that hold no predicate names (``traces.json``, plots) are
+    copied as they are."""
+    mapping = with_derived_names(mapping)
     dst.mkdir(parents=True, exist_ok=True)
     for f in sorted(src.iterdir()):
         if f.is_dir() or f.name == "manifest.json":     # the manifest's checksums are of the old files
