@@ -179,6 +179,29 @@ def prepare(ds: Dataset, config: LossConfig = LossConfig(), path: str = "<traces
                     unary_scale, spread(pairs[:, off].reshape(-1, pairs.shape[-1])), config.change_tol)
 
 
+@dataclass(frozen=True, eq=False)
+class _SymbolTruth:
+    """One symbol on the data: its truth (S, M) or (S, M, M) as uint8 (diagonal false), whether it
+    is neither never nor always true (``active``: only those enter the loss), its truth packed as
+    bytes (part of the abstraction's cache key), which transitions leave it unchanged, and its
+    regulariser."""
+
+    truth: np.ndarray
+    active: bool
+    packed: bytes
+    unchanged: np.ndarray
+    reg: float
+
+    @staticmethod
+    def of(col: np.ndarray, reg: float, data: LossData, off_diagonal: np.ndarray) -> "_SymbolTruth":
+        flat = col if col.ndim == 2 else col[:, off_diagonal]
+        active = bool(flat.any() and not flat.all())
+        truth = np.ascontiguousarray(col, dtype=np.uint8)
+        changes = truth[data.pre] != truth[data.post]
+        unchanged = ~changes.reshape(len(changes), -1).any(axis=1)
+        return _SymbolTruth(truth, active, np.packbits(truth).tobytes(), unchanged, reg)
+
+
 class Loss:
     """``loss(symbols) -> LossTerms`` on one dataset; caches class distances across calls."""
 
@@ -197,7 +220,7 @@ class Loss:
         self._groups: dict[bytes, np.ndarray] = {}
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
-        self._truth_cache: dict[tuple, np.ndarray] = {}
+        self._truth_cache: dict[tuple, _SymbolTruth] = {}
         self._off_diagonal = ~np.eye(data.features.shape[1], dtype=bool)
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
@@ -206,27 +229,32 @@ class Loss:
         self._state_memo = compiled.new_state_memo() if kernels == "numba" else None
         self._intern = compiled.new_intern() if kernels == "numba" else None
         self._memo_sizes = (0, 0, 0)
+        n = data.n_transitions           # the passes' locks and labels (transition; reward: none)
+        self._lock, self._label = data.lock.astype(np.int64), data.label.astype(np.int64)
+        self._no_lock, self._no_label = np.zeros_like(self._lock), np.zeros(n, dtype=np.int64)
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
         self.evaluations += 1
         d, c = self.data, self.config
-        unary = [s for s in symbols if s.arity == 1]
-        binary = [s for s in symbols if s.arity == 2]
-        u = self._truth(unary, d.features, unary_truth)
-        b = self._truth(binary, d.pairs, binary_truth)
-        ku, kb = active_columns(u, b)
-        u, b = u[..., ku].astype(np.uint8), b[..., kb].astype(np.uint8)
-        cap = c.width_cap
-        reg = sum(width_penalty(s.widths, d.unary_scale, cap) for s, keep in zip(unary, ku) if keep)
-        reg += sum(width_penalty(s.widths, d.pair_scale, cap) for s, keep in zip(binary, kb) if keep)
+        unary = [self._symbol(s) for s in symbols if s.arity == 1]
+        binary = [self._symbol(s) for s in symbols if s.arity == 2]
+        au = [e for e in unary if e.active]
+        ab = [e for e in binary if e.active]
+        reg = sum(e.reg for e in au)
+        reg += sum(e.reg for e in ab)
         # the other terms depend on the abstraction only: annealing moves often leave it unchanged
-        key = (len(unary), len(binary), u.shape, b.shape, np.packbits(u).tobytes(), np.packbits(b).tobytes())
+        key = (len(unary), len(binary), tuple(e.packed for e in au), tuple(e.packed for e in ab))
         terms = self._abstraction_cache.get(key)
         if terms is None:
-            same = (u[d.pre] == u[d.post]).all(axis=(1, 2)) & (b[d.pre] == b[d.post]).all(axis=(1, 2, 3))
-            terms = (float(np.sum(same & d.changed)), self._transition_nll(u, b, len(unary), len(binary)),
-                     self._reward_nll(u, b))
+            same = d.changed.copy()
+            for e in au + ab:
+                same &= e.unchanged
+            u = np.stack([e.truth for e in au], axis=-1) if au else np.zeros(d.features.shape[:-1] + (0,), np.uint8)
+            b = np.stack([e.truth for e in ab], axis=-1) if ab else np.zeros(d.pairs.shape[:-1] + (0,), np.uint8)
+            up, bp = u[d.pre], b[d.pre]
+            terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, len(unary), len(binary)),
+                     self._reward_nll(up, bp))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
             self._abstraction_cache[key] = terms
@@ -234,25 +262,25 @@ class Loss:
         return LossTerms(c.effect_weight * effect, c.transition_weight * trans, c.reward_weight * rew,
                          c.reg_weight * reg)
 
-    def _truth(self, symbols: list[Symbol], space: np.ndarray, fn) -> np.ndarray:
-        """Truth arrays, one symbol at a time, memoised: a move changes one symbol of a candidate."""
-        cols = []
-        for s in symbols:
-            key = (s.arity, s.centre.tobytes(), s.widths.tobytes())
-            col = self._truth_cache.get(key)
-            if col is None:
-                if len(self._truth_cache) >= 512:
-                    self._truth_cache.pop(next(iter(self._truth_cache)))
-                if self.kernels == "numba":
-                    col = compiled.rbf_holds(space.reshape(-1, space.shape[-1]), s.centre, s.widths).reshape(space.shape[:-1])
-                    if s.arity == 2:
-                        col &= self._off_diagonal
-                else:
-                    col = fn([s], space)[..., 0]
-                self._truth_cache[key] = col
-            cols.append(col)
-        shape = space.shape[:-1] + (len(symbols),)
-        return np.stack(cols, axis=-1) if cols else np.zeros(shape, dtype=bool)
+    def _symbol(self, s: Symbol) -> "_SymbolTruth":
+        """What the loss needs of one symbol, memoised: an annealing move changes one symbol of a
+        candidate, so the others come from here."""
+        key = (s.arity, s.centre.tobytes(), s.widths.tobytes())
+        entry = self._truth_cache.get(key)
+        if entry is None:
+            d = self.data
+            space, scale = (d.features, d.unary_scale) if s.arity == 1 else (d.pairs, d.pair_scale)
+            if self.kernels == "numba":
+                col = compiled.rbf_holds(space.reshape(-1, space.shape[-1]), s.centre, s.widths).reshape(space.shape[:-1])
+                if s.arity == 2:
+                    col &= self._off_diagonal
+            else:
+                col = (unary_truth if s.arity == 1 else binary_truth)([s], space)[..., 0]
+            entry = _SymbolTruth.of(col, width_penalty(s.widths, scale, self.config.width_cap), d, self._off_diagonal)
+            if len(self._truth_cache) >= 512:
+                self._truth_cache.pop(next(iter(self._truth_cache)))
+            self._truth_cache[key] = entry
+        return entry
 
     # -- nearest neighbours
     def neighbours(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray) -> "Neighbourhood":
@@ -297,7 +325,7 @@ class Loss:
         if classes > 500_000 or pairs > 4_000_000:
             self._intern, self._pair_memo = compiled.new_intern(), compiled.new_memo()
         *fields, self._memo_sizes = compiled.neighbourhood(
-            u, b, lock.astype(np.int64, copy=False), label.astype(np.int64, copy=False),
+            u, b, np.asarray(lock, dtype=np.int64), np.asarray(label, dtype=np.int64),
             self._state_memo, *self._intern, self._pair_memo, self._order_cache)
         return Neighbourhood(*fields)
 
@@ -440,7 +468,9 @@ class Loss:
         return d, perm
 
     # -- the two predictive terms
-    def _transition_nll(self, u: np.ndarray, b: np.ndarray, n_unary: int, n_binary: int) -> float:
+    def _transition_nll(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
+                        n_unary: int, n_binary: int) -> float:
+        """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``)."""
         d = self.data
         m = u.shape[1]
         # literals of every candidate symbol, pruned ones included (those are predicted right for
@@ -448,7 +478,7 @@ class Loss:
         n_lit = m * n_unary + m * (m - 1) * n_binary
         if n_lit == 0:
             return 0.0
-        nb = self.neighbours(u[d.pre], b[d.pre], d.lock, d.label)
+        nb = self.neighbours(up, bp, self._lock, self._label)
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         if self.kernels == "numba":
@@ -460,16 +490,15 @@ class Loss:
         lp = mis * log_eps + (n_lit - mis) * log_ok
         return float(-mixture_ll(item, lp, weight, len(d.pre)).sum())
 
-    def _reward_nll(self, u: np.ndarray, b: np.ndarray) -> float:
+    def _reward_nll(self, up: np.ndarray, bp: np.ndarray) -> float:
         d = self.data
         n = len(d.pre)
-        nb = self.neighbours(u[d.pre], b[d.pre], np.zeros_like(d.lock), np.zeros(n, dtype=np.int64))
+        nb = self.neighbours(up, bp, self._no_lock, self._no_label)
         s2 = self.sigma ** 2
         c0 = -0.5 * math.log(2 * math.pi * s2)
         if self.kernels == "numba":
             item, diff, top = compiled.reward_mixture(nb.cls, nb.lone, nb.hit_query, nb.hit_class, d.reward, c0, 2 * s2)
-            e = np.exp(diff)
-            return float(-mixture_finish(top, *compiled.mixture_sums(item, e, np.ones(len(item)), n)).sum())
+            return float(-mixture_finish(top, *compiled.mixture_sums(item, np.exp(diff), np.ones(len(item)), n)).sum())
         item, other = reward_entries(nb)
         lp = c0 - (d.reward[item] - d.reward[other]) ** 2 / (2 * s2)
         return float(-mixture_ll(item, lp, np.ones(len(item)), n).sum())
