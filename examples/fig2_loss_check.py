@@ -47,25 +47,49 @@ def never(name: str, arity: int, n_features: int) -> Symbol:
     return Symbol(name, arity, np.full(n_features, 1e3), np.full(n_features, 1e-3))
 
 
-def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int,
-                    without: str | None = None) -> dict[str, float]:
-    """Loss of the intended symbol set (best binary relation and order), of no symbol and, with
-    ``without``, of the intended set with that unary relation switched off."""
+def binary_candidates(ds, binary: list[str]) -> list[tuple[Symbol, tuple[str, bool]]]:
+    """Each relation of ``binary`` in both argument orders, fitted as a symbol ``b1`` (those that
+    hold somewhere), with its (relation, swapped)."""
+    fitted = [(fit_relation_symbol("b1", rel, ds, swapped=swapped), (rel, swapped))
+              for rel, swapped in itertools.product(binary, (False, True))]
+    return [(b, which) for b, which in fitted if b is not None]
+
+
+def best_with(loss: Loss, unary_symbols: list[Symbol], candidates: list, rest: list[Symbol]):
+    """The set ``unary_symbols + [b] + rest`` with the binary candidate ``b`` that scores lowest,
+    and which relation that is; (None, None) without candidates."""
+    sets = [([*unary_symbols, b, *rest], which) for b, which in candidates]
+    return min(sets, key=lambda s: loss(s[0]).total, default=(None, None))
+
+
+def intended_set(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int = 1):
+    """The intended symbols (the unary relations fitted; of the binary ones, the relation and
+    argument order whose fitted symbol scores lowest; further binary slots never true) and which
+    binary relation that is, as (relation, swapped); (None, None) when none holds in ``ds``."""
     n, n2 = len(ds.feature_names), len(dataset_pair_names(ds))     # pair features may be fewer (point clouds)
     us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
-    empty_b = [never(f"b{i + 1}", 2, n2) for i in range(n_binary)]
-    fewer = [never(s.name, 1, n) if r == without else s for r, s in zip(unary, us)]
-    fitted = [fit_relation_symbol("b1", rel, ds, swapped=swapped)
-              for rel, swapped in itertools.product(binary, (False, True))]
-    candidates = [b for b in fitted if b is not None]
+    rest = [never(f"b{i + 1}", 2, n2) for i in range(1, n_binary)]
+    return best_with(loss, us, binary_candidates(ds, binary), rest)
 
-    def best_with(unary_symbols: list[Symbol]) -> float:
-        return min((loss([*unary_symbols, b, *empty_b[1:]]).total for b in candidates), default=math.inf)
+
+def intended_losses(ds, loss: Loss, unary: list[str], binary: list[str], n_binary: int,
+                    without: str | None = None) -> dict[str, float]:
+    """Loss of the intended symbol set (:func:`intended_set`), of no symbol and, with ``without``,
+    of the intended set with that unary relation switched off."""
+    n, n2 = len(ds.feature_names), len(dataset_pair_names(ds))
+    us = [fit_relation_symbol(f"u{i + 1}", r, ds) or never(f"u{i + 1}", 1, n) for i, r in enumerate(unary)]
+    empty_b = [never(f"b{i + 1}", 2, n2) for i in range(n_binary)]
+    candidates = binary_candidates(ds, binary)
+
+    def total(symbols: list[Symbol] | None) -> float:
+        return math.inf if symbols is None else loss(symbols).total
 
     nothing = loss([never(f"u{i + 1}", 1, n) for i in range(len(unary))] + empty_b).total
-    out = {"intended": best_with(us), "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
+    out = {"intended": total(intended_set(ds, loss, unary, binary, n_binary)[0]),
+           "unary_only": loss([*us, *empty_b]).total, "nothing": nothing}
     if without:
-        out["without"] = best_with(fewer)
+        fewer = [never(s.name, 1, n) if r == without else s for r, s in zip(unary, us)]
+        out["without"] = total(best_with(loss, fewer, candidates, empty_b[1:])[0])
     return out
 
 

@@ -1,7 +1,7 @@
 """Is it the loss or the search? The intended symbols, fitted and then polished by local search.
 
 A fitted intended symbol (:func:`groundsym.grounding.fit_relation_symbol`: the bounding box of the
-relation's examples) is a poor version of itself: it looks at every feature dimension and pays
+relation's examples; the set as ``examples/fig2_loss_check.py`` builds it) is a poor version of itself: it looks at every feature dimension and pays
 20-40 nats of regulariser where a learned symbol of the same meaning pays a few. This script
 starts a search *from* the fitted set, with small perturbations only (no re-seeds, no swaps) and a
 low temperature, so the symbols keep their meaning (their F1 against the simulator's truth is
@@ -21,7 +21,6 @@ when above, the loss prefers what was learned.
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import sys
 from pathlib import Path
@@ -29,28 +28,16 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from fig2_loss_check import intended_set  # noqa: E402
 
 from groundsym.anneal import AnnealConfig, RestartState, advance  # noqa: E402
 from groundsym.fileio import atomic_write_json  # noqa: E402
-from groundsym.grounding import _off_diagonal, fit_relation_symbol, scores, truth_arrays  # noqa: E402
+from groundsym.grounding import _off_diagonal, scores, truth_arrays  # noqa: E402
 from groundsym.loss import Loss, prepare  # noqa: E402
 from groundsym.symbols import Symbol, dataset_arrays  # noqa: E402
 from groundsym.traces import Dataset, read_traces  # noqa: E402
-
-
-def fitted_set(ds: Dataset, loss: Loss, unary: list[str], binary: list[str]) -> tuple[list[Symbol], str, bool]:
-    """The fitted unary symbols and the binary relation (and argument order) that scores best."""
-    us = [fit_relation_symbol(f"u{i + 1}", r, ds) for i, r in enumerate(unary)]
-    if any(s is None for s in us):
-        raise SystemExit(f"a unary relation of {unary} never holds in the data")
-    best = None
-    for rel, swapped in itertools.product(binary, (False, True)):
-        b = fit_relation_symbol("b1", rel, ds, swapped=swapped)
-        if b is not None and (best is None or loss(us + [b]).total < best[0]):
-            best = (loss(us + [b]).total, b, rel, swapped)
-    if best is None:
-        raise SystemExit(f"no binary relation of {binary} holds in the data")
-    return us + [best[1]], best[2], best[3]
 
 
 def f1_scores(ds: Dataset, symbols: list[Symbol], unary: list[str], rel: str, swapped: bool) -> list[float]:
@@ -93,7 +80,10 @@ def main() -> int:
     for seed in args.seeds:
         ds = read_traces(args.data / f"train_{seed}.json")
         loss = Loss(prepare(ds))
-        start, rel, swapped = fitted_set(ds, loss, args.unary, args.binary)
+        start, which = intended_set(ds, loss, args.unary, args.binary)
+        if start is None:
+            raise SystemExit(f"{args.data / f'train_{seed}.json'}: no relation of {args.binary} holds in the data")
+        rel, swapped = which
         state = polish(loss, start, args.evals, seed, len(args.unary))
         names = [*args.unary, rel + (" (swapped)" if swapped else "")]
         f1 = f1_scores(ds, state.best, args.unary, rel, swapped)

@@ -193,13 +193,11 @@ class _SymbolTruth:
     reg: float
 
     @staticmethod
-    def of(col: np.ndarray, reg: float, data: LossData, off_diagonal: np.ndarray) -> "_SymbolTruth":
-        flat = col if col.ndim == 2 else col[:, off_diagonal]
-        active = bool(flat.any() and not flat.all())
+    def of(col: np.ndarray, reg: float, data: LossData) -> "_SymbolTruth":
         truth = np.ascontiguousarray(col, dtype=np.uint8)
         changes = truth[data.pre] != truth[data.post]
         unchanged = ~changes.reshape(len(changes), -1).any(axis=1)
-        return _SymbolTruth(truth, active, np.packbits(truth).tobytes(), unchanged, reg)
+        return _SymbolTruth(truth, varies(col), np.packbits(truth).tobytes(), unchanged, reg)
 
 
 class Loss:
@@ -220,7 +218,7 @@ class Loss:
         self._groups: dict[bytes, np.ndarray] = {}
         self._canon_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._abstraction_cache: dict[tuple, tuple[float, float, float]] = {}
-        self._truth_cache: dict[tuple, _SymbolTruth] = {}
+        self._symbols: dict[tuple, _SymbolTruth] = {}
         self._off_diagonal = ~np.eye(data.features.shape[1], dtype=bool)
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
@@ -266,7 +264,7 @@ class Loss:
         """What the loss needs of one symbol, memoised: an annealing move changes one symbol of a
         candidate, so the others come from here."""
         key = (s.arity, s.centre.tobytes(), s.widths.tobytes())
-        entry = self._truth_cache.get(key)
+        entry = self._symbols.get(key)
         if entry is None:
             d = self.data
             space, scale = (d.features, d.unary_scale) if s.arity == 1 else (d.pairs, d.pair_scale)
@@ -276,10 +274,10 @@ class Loss:
                     col &= self._off_diagonal
             else:
                 col = (unary_truth if s.arity == 1 else binary_truth)([s], space)[..., 0]
-            entry = _SymbolTruth.of(col, width_penalty(s.widths, scale, self.config.width_cap), d, self._off_diagonal)
-            if len(self._truth_cache) >= 512:
-                self._truth_cache.pop(next(iter(self._truth_cache)))
-            self._truth_cache[key] = entry
+            entry = _SymbolTruth.of(col, width_penalty(s.widths, scale, self.config.width_cap), d)
+            if len(self._symbols) >= 512:
+                self._symbols.pop(next(iter(self._symbols)))
+            self._symbols[key] = entry
         return entry
 
     # -- nearest neighbours
@@ -770,14 +768,14 @@ def width_penalty(widths: np.ndarray, scale: np.ndarray, cap: float = 0.0) -> fl
     return float(np.sum(np.log(ratio) ** 2))
 
 
+def varies(truth: np.ndarray) -> bool:
+    """A symbol's truth, (S, M) unary or (S, M, M) binary, is neither never nor always true (a
+    binary symbol's diagonal excluded): only such symbols carry information, the others are pruned."""
+    flat = truth if truth.ndim == 2 else truth[:, ~np.eye(truth.shape[1], dtype=bool)]
+    return bool(flat.any() and not flat.all())
+
+
 def active_columns(u: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Which unary / binary symbols are neither never nor always true (diagonal excluded)."""
-    ku = u.any(axis=(0, 1)) & ~u.all(axis=(0, 1)) if u.shape[-1] else np.zeros(0, bool)
-    if b.shape[-1]:
-        m = b.shape[1]
-        off = ~np.eye(m, dtype=bool)
-        flat = b[:, off]                      # (S, M(M-1), L)
-        kb = flat.any(axis=(0, 1)) & ~flat.all(axis=(0, 1))
-    else:
-        kb = np.zeros(0, bool)
-    return ku, kb
+    """Which unary / binary symbols (last axis of ``u`` / ``b``) vary (:func:`varies`)."""
+    return (np.array([varies(u[..., k]) for k in range(u.shape[-1])], dtype=bool),
+            np.array([varies(b[..., k]) for k in range(b.shape[-1])], dtype=bool))
