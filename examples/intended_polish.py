@@ -16,6 +16,9 @@ when above, the loss prefers what was learned.
 
 ``--data`` is a directory of ``train_S.json`` files (``examples/grounding_report.py`` writes one);
 ``--report`` a grounding report whose learned losses are compared. About 20 s per seed.
+``--each-restart`` also runs the default search restart by restart (as ``groundsym learn --seed S``
+does) and polishes each restart's best the same way: which basins the restarts end in, and what
+their symbols mean.
 """
 
 from __future__ import annotations
@@ -32,11 +35,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from fig2_loss_check import intended_set  # noqa: E402
 
-from groundsym.anneal import AnnealConfig, RestartState, advance  # noqa: E402
+from groundsym.anneal import AnnealConfig, RestartState, advance, start_restart  # noqa: E402
 from groundsym.fileio import atomic_write_json  # noqa: E402
-from groundsym.grounding import _off_diagonal, scores, truth_arrays  # noqa: E402
+from groundsym.grounding import _off_diagonal, match_symbols, scores, truth_arrays  # noqa: E402
 from groundsym.loss import Loss, prepare  # noqa: E402
-from groundsym.symbols import Symbol, dataset_arrays  # noqa: E402
+from groundsym.symbols import Symbol, SymbolSet, dataset_arrays  # noqa: E402
 from groundsym.traces import Dataset, read_traces  # noqa: E402
 
 
@@ -61,6 +64,29 @@ def polish(loss: Loss, start: list[Symbol], evals: int, seed: int, n_unary: int)
     return advance(state, loss, cfg, evals)
 
 
+def restart_by_restart(ds: Dataset, loss: Loss, seed: int, n_unary: int, evals: int) -> list[dict]:
+    """Each restart of the default search (``groundsym learn --seed SEED``'s restarts, run one by
+    one), its best set polished as the intended one is: where each basin ends and what it means."""
+    cfg = AnnealConfig(n_unary=n_unary, n_binary=1)
+    out = []
+    for index in range(cfg.restarts):
+        state = start_restart(index, seed, loss, cfg)
+        state = advance(state, loss, cfg, cfg.budget(index))
+        polished = polish(loss, state.best, evals, seed, n_unary)
+        out.append({"restart": index, "loss": state.best_terms.total, "matches": _words(ds, state.best),
+                     "polished": polished.best_terms.to_doc(), "polished_matches": _words(ds, polished.best)})
+    return out
+
+
+def _words(ds: Dataset, symbols: list[Symbol]) -> list[str]:
+    """Each symbol's best match on the training scenes (and its negation's, when better)."""
+    out = []
+    for m in match_symbols(SymbolSet.for_dataset(symbols, ds), ds):
+        neg = f" (negation: {m.negation_of} {m.negation_f1:.2f})" if m.negation_of else ""
+        out.append(f"{m.symbol} ~ {m.best_match} {m.f1:.2f}{neg}")
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, required=True, help="directory of train_S.json files")
@@ -70,6 +96,9 @@ def main() -> int:
     ap.add_argument("--evals", type=int, default=20_000, help="evaluations of the polishing search")
     ap.add_argument("--report", type=Path, help="a grounding report.json whose learned losses are compared")
     ap.add_argument("--json", type=Path, help="write the rows here")
+    ap.add_argument("--each-restart", action="store_true",
+                    help="also run the default search's restarts one by one and polish each one's best "
+                         "(about 30 s per restart)")
     args = ap.parse_args()
     learned = {}
     if args.report:
@@ -90,10 +119,15 @@ def main() -> int:
         row = {"seed": seed, "fitted": loss(start).total, "polished": state.best_terms.total,
                "polished_terms": state.best_terms.to_doc(), "f1": dict(zip(names, f1)),
                "learned": learned.get(seed)}
+        if args.each_restart:
+            row["restarts"] = restart_by_restart(ds, loss, seed, len(args.unary), args.evals)
         rows.append(row)
         diff = "" if row["learned"] is None else f"{row['polished'] - row['learned']:+.1f}"
         print(f"| {seed} | {'' if row['learned'] is None else format(row['learned'], '.1f')} | {row['fitted']:.1f} "
               f"| {row['polished']:.1f} | {diff} | " + ", ".join(f"{n} {v:.3f}" for n, v in zip(names, f1)) + " |")
+        for r in row.get("restarts", []):
+            print(f"|   restart {r['restart']} | {r['loss']:.1f} | | {r['polished']['total']:.1f} | | "
+                  + "; ".join(r["polished_matches"]) + " |")
     if args.json:
         atomic_write_json(args.json, {"unary": args.unary, "binary": args.binary, "evals": args.evals, "rows": rows})
     return 0
