@@ -309,7 +309,9 @@ def test_rename_model_and_export(bw_model, tmp_path, capsys):
     assert domain.predicate("stacked") is not None and domain.predicate("on") is None
     assert (model / "rules.json").read_text() == before
     capsys.readouterr()
-    for bad in (["nothere=x"], ["on=clear"], ["on=stack"]):     # unknown, taken by a predicate, an action
+    # unknown, taken by a predicate, an action, the name a derived predicate takes ("no-stacked-1"
+    # from stacked, once on is stacked; "no-on-1" while on stays)
+    for bad in (["nothere=x"], ["on=clear"], ["on=stack"], ["on=stacked", "clear=no-stacked-1"], ["clear=no-on-1"]):
         assert main(["rename", str(model), *bad]) == 2
         assert capsys.readouterr().err.count("\n") == 1
     assert (model / "rules.json").read_text() == before

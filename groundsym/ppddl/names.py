@@ -61,7 +61,8 @@ def parse_renames(items: Sequence[str], what: str = "rename") -> dict[str, str]:
 def check_renames(mapping: Mapping[str, str], predicates: Mapping[str, int], primitives: Sequence[str],
                   where: str, what: str = "rename") -> None:
     """Every old name is a predicate of the model; no new name collides with a predicate that
-    stays, another new name or a primitive (action) name."""
+    stays, another new name, a primitive (action) name or the name a derived predicate takes after
+    the renaming (``on=stacked`` makes ``no-on-1`` ``no-stacked-1``; :func:`with_derived_names`)."""
     for old in mapping:
         if old not in predicates:
             raise UserError(f"{what}: {where} has no predicate {old!r} (predicates: {', '.join(sorted(predicates))})")
@@ -72,6 +73,11 @@ def check_renames(mapping: Mapping[str, str], predicates: Mapping[str, int], pri
     prim = sorted(set(after) & set(primitives))
     if prim:
         raise UserError(f"{what}: {prim[0]!r} is an action name of {where}; choose another name")
+    derived = {d.name: d.base for p, n in predicates.items() for d in Derived.for_predicates({mapping.get(p, p): n})}
+    taken = sorted(set(mapping.values()) & set(derived))
+    if taken:
+        raise UserError(f"{what}: {taken[0]!r} is the name of a predicate derived from {derived[taken[0]]!r}; "
+                        "choose another name")
 
 
 def _pattern(mapping: Mapping[str, str]) -> re.Pattern:
