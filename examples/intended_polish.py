@@ -1,8 +1,9 @@
 """Is it the loss or the search? The intended symbols, fitted and then polished by local search.
 
 A fitted intended symbol (:func:`groundsym.grounding.fit_relation_symbol`: the bounding box of the
-relation's examples; the set as ``examples/fig2_loss_check.py`` builds it) is a poor version of itself: it looks at every feature dimension and pays
-20-40 nats of regulariser where a learned symbol of the same meaning pays a few. This script
+relation's examples; the set as ``examples/fig2_loss_check.py`` builds it) is a poor version of
+itself: it looks at every feature dimension and pays 20-40 nats of regulariser where a learned
+symbol of the same meaning pays a few. This script
 starts a search *from* the fitted set, with small perturbations only (no re-seeds, no swaps) and a
 low temperature, so the symbols keep their meaning (their F1 against the simulator's truth is
 printed) and lose what the bounding box added. Its loss is the yardstick for a learned set on the
