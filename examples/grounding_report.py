@@ -40,15 +40,14 @@ def sh(args: list[str], quiet: bool = False) -> str:
 def learned_already(model: Path, train: Path, seed: int, args: argparse.Namespace) -> bool:
     """Does ``model`` hold symbols learned from ``train`` with this seed and the current settings?"""
     sys.path.insert(0, str(ROOT))
-    from groundsym.anneal import AnnealConfig
     from groundsym.fileio import file_sha256
-    from groundsym.commands.learn import loss_config
+    from groundsym.commands.learn import anneal_config, loss_config
 
     try:
         doc = json.loads((model / "symbols.json").read_text())
     except (OSError, ValueError):
         return False
-    want = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
+    want = anneal_config(args)
     prov, cfg = doc.get("provenance", {}), doc.get("config", {})
     return (prov.get("seed") == seed and prov.get("data_sha256") == file_sha256(train)
             and cfg.get("anneal") == want.to_doc() and cfg.get("loss") == loss_config(args.loss).to_doc())
@@ -96,6 +95,8 @@ def main() -> int:
     ap.add_argument("--sim-opt", action="append", default=[])
     ap.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
                     help="a loss setting for groundsym learn (repeatable), e.g. reg_weight=0.5")
+    ap.add_argument("--search", action="append", default=[], metavar="KEY=VALUE",
+                    help="a search setting for groundsym learn (repeatable), e.g. looks=subset")
     ap.add_argument("--want", nargs="+", default=["inhand", "on|above"],
                     help="relations every run should ground ('a|b': either); counted per seed")
     ap.add_argument("--good", type=float, default=0.8, help="F1 at which a symbol grounds a relation")
@@ -114,6 +115,7 @@ def main() -> int:
         if args.workers:
             cmd += ["--workers", str(args.workers)]
         cmd += [x for kv in args.loss for x in ("--loss", kv)]
+        cmd += [x for kv in args.search for x in ("--search", kv)]
         if not learned_already(model, train, seed, args):
             sh(cmd)
         doc = json.loads(sh(["show", str(model), "--against", str(test), "--json"], quiet=True))
@@ -123,7 +125,8 @@ def main() -> int:
         for m in doc["symbols"]:
             print(f"seed {seed}: {m['symbol']} ~ {m['best_match']} ({m['argument_order']}) F1 {m['f1']:.3f}",
                   file=sys.stderr)
-    report = {"evals": args.evals, "restarts": args.restarts, "loss": args.loss, "unary": args.unary, "binary": args.binary,
+    report = {"evals": args.evals, "restarts": args.restarts, "loss": args.loss, "search": args.search,
+              "unary": args.unary, "binary": args.binary,
               "sim_opt": args.sim_opt, "train_traces": args.train_traces, "test_traces": args.test_traces,
               "runs": rows}
     lines = ["| seed | loss | symbol | best match | order | precision | recall | F1 | negation ~ | F1 |",

@@ -69,6 +69,20 @@ class AnnealConfig:
             raise ValueError(f"p_ignore must be in [0, 1), got {self.p_ignore}")
         if self.looks not in LOOKS:
             raise ValueError(f"looks must be one of {', '.join(LOOKS)}, got {self.looks!r}")
+        for name in ("p_reseed", "p_swap", "p_moved"):
+            if not 0 <= getattr(self, name) <= 1:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        for name in ("t_start", "t_end", "step"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ValueError(f"{name} must be a finite number above 0, got {getattr(self, name)}")
+        for name in ("width_range", "share_range"):
+            lo, hi = getattr(self, name)
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+                raise ValueError(f"{name} must be two finite numbers 0 < lo <= hi, got {lo},{hi}")
+        if self.share_range[1] > 1:
+            raise ValueError(f"share_range is a share of the data, at most 1, got {self.share_range[1]}")
+        if self.chunk < 1:
+            raise ValueError(f"chunk must be at least 1, got {self.chunk}")
 
     def budget(self, restart: int) -> int:
         base, extra = divmod(self.evals, self.restarts)

@@ -111,6 +111,33 @@ def test_user_errors(traces, tmp_path, capsys):
                     "need at least one symbol")
 
 
+def test_search_settings_reach_the_search(traces, tmp_path, capsys):
+    """`--search looks=subset share_range=0.01,0.2 population=3` is the search that anneal runs with
+    that AnnealConfig (the same symbols and loss as calling it directly), recorded in symbols.json;
+    bad keys and values are one line each, before any work."""
+    from groundsym.anneal import AnnealConfig, anneal
+    from groundsym.loss import LossConfig, prepare
+
+    assert _learn(traces, tmp_path / "s", "--seed", "2", "--search", "looks=subset share_range=0.01,0.2",
+                  "--search", "population=3") == 0
+    doc = json.loads((tmp_path / "s" / "symbols.json").read_text())
+    cfg = AnnealConfig(evals=120, restarts=2, looks="subset", share_range=(0.01, 0.2), population=3)
+    assert doc["config"]["anneal"] == cfg.to_doc()
+    want = anneal(prepare(read_traces(traces)), LossConfig(), cfg, 2)
+    assert doc["loss"]["total"] == want.terms.total
+    assert [s["name"] for s in doc["symbols"]] == [s.name for s in want.symbols]
+    assert [s["centre"] for s in doc["symbols"]] == [s.centre.tolist() for s in want.symbols]
+    for bad, words in ((["speed=3"], ("--search speed", "unknown setting")),
+                       (["population=2.5"], ("--search population=2.5", "whole number")),
+                       (["p_reseed=nan"], ("--search", "p_reseed must be in [0, 1]")),
+                       (["t_end=0"], ("--search", "t_end must be a finite number above 0")),
+                       (["share_range=0.3"], ("--search share_range=0.3", "LO,HI")),
+                       (["share_range=0.3,0.1"], ("--search", "0 < lo <= hi")),
+                       (["looks=all"], ("--search", "looks must be one of independent, subset"))):
+        _one_line_error(capsys, ["learn", str(traces), "-o", str(tmp_path / "x"), "--search", *bad], *words)
+    assert not (tmp_path / "x").exists()
+
+
 def test_loss_settings_reach_the_loss(traces, tmp_path, capsys):
     """`--loss transition_weight=0` removes the prediction term from the loss the search minimises
     and is recorded in symbols.json; the other terms keep their default weights."""

@@ -53,6 +53,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
                    help="loss setting, repeatable: " + ", ".join(LOSS_KEYS) + " (defaults: docs/symbols.md; "
                         "bowling needs transition_weight=0.15, docs/bowling.md)")
+    p.add_argument("--search", action="append", default=[], metavar="KEY=VALUE",
+                   help="search setting, repeatable: " + ", ".join(SEARCH_KEYS) + " (ranges as LO,HI; "
+                        "defaults and what each does: docs/symbols.md)")
     p.add_argument("--alpha", type=float, default=None, help="rule learning: complexity penalty (passed through)")
     p.add_argument("--p-min", type=float, default=None, help="rule learning: noise outcome floor (passed through)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -85,6 +88,39 @@ def loss_config(items: list[str]) -> LossConfig:
         raise UserError(f"--loss: {exc}") from None
 
 
+# the search's settings other than those with their own flags (--unary, --binary, --evals, --restarts)
+SEARCH_KEYS = tuple(f.name for f in fields(AnnealConfig) if f.name not in ("n_unary", "n_binary", "evals", "restarts"))
+
+
+def anneal_config(args: argparse.Namespace) -> AnnealConfig:
+    """The search settings: the flags and ``--search key=value`` over the defaults; a bad key or
+    value is one line (exit 2)."""
+    types = {f.name: str(f.type) for f in fields(AnnealConfig)}
+    values: dict[str, object] = {}
+    for key, text in split_key_values(args.search, "--search").items():
+        if key not in SEARCH_KEYS:
+            raise UserError(f"--search {key}: unknown setting (known: {', '.join(SEARCH_KEYS)})")
+        try:
+            if types[key] == "str":
+                values[key] = text
+            elif types[key] == "int":
+                values[key] = int(text)
+            elif types[key].startswith("tuple"):
+                lo, hi = (float(x) for x in text.split(","))
+                values[key] = (lo, hi)
+            else:
+                values[key] = float(text)
+        except ValueError:
+            kind = {"int": "a whole number", "str": "a word"}.get(types[key], "LO,HI" if types[key].startswith("tuple")
+                                                                 else "a number")
+            raise UserError(f"--search {key}={text}: expected {kind}") from None
+    try:
+        return AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts,
+                            **values)
+    except ValueError as exc:
+        raise UserError(f"--search: {exc}") from None
+
+
 MAX_SYMBOLS = 64   # per arity: far beyond the paper's 1-3, small enough that memory is never the limit
 
 
@@ -110,6 +146,7 @@ def check_options(args: argparse.Namespace) -> str:
     if args.evals < args.restarts:
         raise UserError(f"--evals: {args.evals} is less than one evaluation per restart ({args.restarts})")
     loss_config(args.loss)
+    anneal_config(args)
     if args.checkpoint is not None:
         output_target(args.checkpoint)
     if args.model_data is not None:
@@ -160,7 +197,7 @@ def learn_symbols(args: argparse.Namespace, out: Path, model_ds: Dataset | None 
                         f"read the other (collect both with the same --sim-opt features=...)")
     loss_cfg = loss_config(args.loss)
     data = prepare(ds, loss_cfg, str(args.data))
-    cfg = AnnealConfig(n_unary=args.unary, n_binary=args.binary, evals=args.evals, restarts=args.restarts)
+    cfg = anneal_config(args)
     sha = file_sha256(args.data)
     workers = min(args.workers or default_workers(), args.restarts)
     with make_executor(args.executor, workers=workers, address=args.ray_address) as ex:
