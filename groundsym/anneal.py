@@ -59,6 +59,10 @@ class AnnealConfig:
     p_ignore: float = 0.25       # a new symbol ignores each feature dimension with this probability
     looks: str = "independent"   # or "subset": how many dimensions a new symbol looks at is uniform
     chunk: int = 500             # evaluations per restart between checkpoints
+    hop_steps: int = 0           # >0: late re-seeds are basin hops, the new symbol settled this many steps
+    hop_after: float = 0.5       # share of a restart's budget after which re-seeds hop (with hop_steps > 0)
+    ladder: float = 1.0          # candidate k runs at ladder**k x the temperature; >1: replica exchange
+    p_exchange: float = 0.1      # with ladder > 1: per move, chance to offer neighbours' states a trade
 
     def __post_init__(self) -> None:
         if self.n_unary < 0 or self.n_binary < 0 or self.n_unary + self.n_binary == 0:
@@ -83,6 +87,14 @@ class AnnealConfig:
             raise ValueError(f"share_range is a share of the data, at most 1, got {self.share_range[1]}")
         if self.chunk < 1:
             raise ValueError(f"chunk must be at least 1, got {self.chunk}")
+        if self.hop_steps < 0:
+            raise ValueError(f"hop_steps must be 0 (no hops) or more, got {self.hop_steps}")
+        if not 0 <= self.hop_after <= 1:
+            raise ValueError(f"hop_after must be in [0, 1], got {self.hop_after}")
+        if not (math.isfinite(self.ladder) and self.ladder >= 1):
+            raise ValueError(f"ladder must be a finite number of at least 1, got {self.ladder}")
+        if not 0 <= self.p_exchange <= 1:
+            raise ValueError(f"p_exchange must be in [0, 1], got {self.p_exchange}")
 
     def budget(self, restart: int) -> int:
         base, extra = divmod(self.evals, self.restarts)
@@ -272,8 +284,11 @@ def advance(state: RestartState, loss: Loss, cfg: AnnealConfig, n_evals: int) ->
     done, stop = state.done, min(state.budget, state.done + n_evals)
     n_tr = loss.data.n_transitions
     slots = _slots(cfg)
+    rungs = [cfg.ladder ** k for k in range(len(pop))]
     while done < stop:
         temp = temperature(cfg, done, state.budget, n_tr)
+        if cfg.ladder > 1 and len(pop) > 1 and rng.random() < cfg.p_exchange:
+            _exchange(rng, pop, losses, int(rng.integers(len(pop) - 1)), temp, rungs)
         c = int(rng.integers(len(pop)))
         slot = int(rng.integers(len(slots)))
         move = rng.random()
@@ -285,7 +300,7 @@ def advance(state: RestartState, loss: Loss, cfg: AnnealConfig, n_evals: int) ->
             a[slot], b[slot] = pop[other][slot], pop[c][slot]
             ta, tb = loss(a), loss(b)
             done += 2
-            delta = ta.total + tb.total - losses[c] - losses[other]
+            delta = (ta.total - losses[c]) / rungs[c] + (tb.total - losses[other]) / rungs[other]
             if delta <= 0 or rng.random() < math.exp(-delta / temp):
                 pop[c], pop[other], losses[c], losses[other] = a, b, ta.total, tb.total
                 for cand, t in ((a, ta), (b, tb)):
@@ -299,16 +314,66 @@ def advance(state: RestartState, loss: Loss, cfg: AnnealConfig, n_evals: int) ->
             if rng.random() < 0.5:  # a new centre from the data, the widths kept
                 fresh = Symbol(name, arity, fresh.centre, cand[slot].widths)
             cand[slot] = fresh
+            if hops(cfg, done, state.budget):
+                cand, terms = settle(rng, loss, cand, slot, cfg)
+                done += 1 + cfg.hop_steps
+            else:
+                terms = loss(cand)
+                done += 1
         else:
             cand[slot] = _perturb(rng, cand[slot], cfg)
-        terms = loss(cand)
-        done += 1
+            terms = loss(cand)
+            done += 1
         delta = terms.total - losses[c]
-        if delta <= 0 or rng.random() < math.exp(-delta / temp):
+        if delta <= 0 or rng.random() < math.exp(-delta / (temp * rungs[c])):
             pop[c], losses[c] = cand, terms.total
             if terms.total < best_terms.total:
                 best, best_terms = cand, terms
     return RestartState(state.index, state.budget, done, rng.bit_generator.state, pop, losses, best, best_terms)
+
+
+def _exchange(rng: np.random.Generator, pop: list[Candidate], losses: list[float], k: int, temp: float,
+              rungs: list[float]) -> None:
+    """Replica exchange: candidates ``k`` and ``k + 1`` (at ``temp`` x ``rungs[k]`` and the next,
+    warmer rung) trade their states by the Metropolis rule of parallel tempering. It costs no
+    evaluation (both losses are known).
+
+    Why: the warm rungs keep symbols that pay off only together, e.g. ``ball`` with ``above`` on
+    cubes and balls (alone, each is worth nothing: ``inhand`` + ``ball`` scores like ``inhand``),
+    long enough for the partner to turn up, and the trade brings the pair down to the cold rung,
+    where one annealing chain would long have dropped it."""
+    a = (losses[k] - losses[k + 1]) * (1.0 / (temp * rungs[k]) - 1.0 / (temp * rungs[k + 1]))
+    if a >= 0 or rng.random() < math.exp(a):
+        pop[k], pop[k + 1] = pop[k + 1], pop[k]
+        losses[k], losses[k + 1] = losses[k + 1], losses[k]
+
+
+def hops(cfg: AnnealConfig, done: int, budget: int) -> bool:
+    """Is a re-seed at ``done`` evaluations a basin hop? Late in a restart (after ``hop_after`` of
+    its budget) when ``hop_steps`` is set, and only while the whole hop fits the budget (like a swap,
+    so the moves drawn never depend on where rounds end)."""
+    return cfg.hop_steps > 0 and done >= cfg.hop_after * budget and done + 1 + cfg.hop_steps <= budget
+
+
+def settle(rng: np.random.Generator, loss: Loss, cand: Candidate, slot: int,
+           cfg: AnnealConfig) -> tuple[Candidate, LossTerms]:
+    """A basin hop's second half: ``hop_steps`` greedy perturbations of the re-seeded ``slot`` alone
+    (the others stay), so the hop is judged by the depth of the basin it lands in, not by its raw
+    first point. Costs ``1 + hop_steps`` evaluations.
+
+    Why: late in a restart the temperature is low and a raw re-seed, however good its basin, is
+    almost always worse than the well-tuned symbol it replaces, so it is rejected. Narrow basins
+    (``ball``: one dimension, a tight interval) lose to wide ones (``ontable``) that way, though
+    they go 2-30 nats deeper (docs/symbols.md, "Loss or search?").
+    """
+    best, best_terms = cand, loss(cand)
+    for _ in range(cfg.hop_steps):
+        trial = list(best)
+        trial[slot] = _perturb(rng, best[slot], cfg)
+        terms = loss(trial)
+        if terms.total <= best_terms.total:
+            best, best_terms = trial, terms
+    return best, best_terms
 
 
 # ----------------------------------------------------------------------------- parallel rounds

@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from groundsym.anneal import IGNORE_WIDTH, AnnealConfig, _random_symbol, anneal, prune, share_radius, temperature
+from groundsym.anneal import (IGNORE_WIDTH, AnnealConfig, _exchange, _perturb, _random_symbol, anneal, hops, prune, settle,
+                             share_radius, temperature)
 from groundsym.grounding import match_symbols
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.symbols import Symbol, SymbolSet
@@ -187,3 +188,86 @@ def test_subset_looks_draws_the_number_of_dimensions_uniformly():
     assert counts[0] == 0 and all(150 <= c <= 250 for c in counts[1:])   # 200 each expected
     with pytest.raises(ValueError, match="looks must be one of"):
         AnnealConfig(looks="sometimes")
+
+
+def test_hops_come_late_and_only_when_they_fit_the_budget():
+    cfg = AnnealConfig(hop_steps=10, hop_after=0.5)
+    assert [hops(cfg, done, 100) for done in (0, 49, 50, 89, 90)] == [False, False, True, True, False]
+    assert not hops(AnnealConfig(), 99, 100)                  # hop_steps 0: never
+    assert hops(AnnealConfig(hop_steps=3, hop_after=0.0), 0, 100)
+    for bad in ({"hop_steps": -1}, {"hop_after": 1.5}, {"hop_after": -0.1}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            AnnealConfig(**bad)
+
+
+class _Counting:
+    """A loss that counts its calls (the evaluations a move costs)."""
+
+    def __init__(self, loss):
+        self.loss, self.data, self.calls = loss, loss.data, 0
+
+    def __call__(self, cand):
+        self.calls += 1
+        return self.loss(cand)
+
+
+def test_a_hop_settles_its_own_slot_greedily_and_costs_one_plus_hop_steps(data):
+    loss = _Counting(Loss(data))
+    rng = np.random.default_rng(3)
+    cfg = AnnealConfig(hop_steps=25)
+    start = [_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
+    raw = Loss(data)(start).total
+    settled, terms = settle(rng, loss, start, 1, cfg)
+    assert loss.calls == 26
+    assert terms == Loss(data)(settled) and terms.total <= raw
+    assert settled[0] is start[0]                               # the other slot is left as it was
+    # greedy: replaying the same draws, every accepted step was no worse than the one before
+    rng2 = np.random.default_rng(3)
+    [_random_symbol(rng2, 1, "u1", data, cfg), _random_symbol(rng2, 2, "b1", data, cfg)]
+    best, path = start, [raw]
+    for _ in range(25):
+        trial = [best[0], _perturb(rng2, best[1], cfg)]
+        t = Loss(data)(trial).total
+        if t <= path[-1]:
+            best, path = trial, path + [t]
+    assert path == sorted(path, reverse=True) and path[-1] == terms.total
+
+
+def test_hops_do_not_depend_on_where_rounds_end_or_on_workers(data):
+    """A hop costs 1 + hop_steps evaluations and may end a round past its end: the moves drawn stay
+    the same for any round length, and the whole budget is spent."""
+    runs = [anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2, chunk=chunk, hop_steps=12,
+                                                    hop_after=0.3), seed=7, workers=workers)
+            for chunk, workers in ((500, 1), (37, 2), (1, 1))]
+    for other in runs[1:]:
+        _same(runs[0], other)
+        assert other.evaluations == 600
+    plain = anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2), seed=7)
+    assert plain.terms != runs[0].terms                         # the hops did change the search
+
+
+def test_replica_exchange_follows_the_parallel_tempering_rule():
+    """Neighbours trade states with probability min(1, exp((L_cold - L_warm)(1/T_cold - 1/T_warm))):
+    always when the cold rung holds the worse state, else e^-2.5 here (hand-computed)."""
+    rng = np.random.default_rng(0)
+    pop, losses = [["worse"], ["better"]], [10.0, 5.0]
+    _exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
+    assert pop == [["better"], ["worse"]] and losses == [5.0, 10.0]
+    trades = 0
+    for _ in range(20000):
+        pop, losses = [["a"], ["b"]], [5.0, 10.0]
+        _exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
+        trades += pop[0] == ["b"]
+    assert trades / 20000 == pytest.approx(np.exp(-2.5), abs=0.006)
+
+
+def test_a_ladder_does_not_depend_on_where_rounds_end_or_on_workers(data):
+    runs = [anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2, chunk=chunk, ladder=3.0,
+                                                    p_exchange=0.3, hop_steps=5), seed=8, workers=workers)
+            for chunk, workers in ((500, 1), (41, 2), (1, 1))]
+    for other in runs[1:]:
+        _same(runs[0], other)
+        assert other.evaluations == 600
+    for bad in ({"ladder": 0.5}, {"ladder": float("inf")}, {"p_exchange": 2.0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            AnnealConfig(**bad)
