@@ -5,7 +5,9 @@ Two workloads, each on a fresh :class:`~groundsym.loss.Loss` (empty caches), tim
 of this process (the machine is shared):
 
 * ``annealing``: one simulated-annealing restart from a fixed seed (perturbs, re-seeds, swaps),
-  which is what ``learn`` pays per core;
+  which is what ``learn`` pays per core; the default search (a ladder of temperatures since commit
+  88e004a), or with ``--one-temperature`` the search of the code before it (``ladder=1``), which is
+  what a ``--before`` commit older than that runs: use it to compare the kernels alone;
 * ``random``: independent random symbol sets (centres from the data, random widths), the worst
   case for caches.
 
@@ -51,7 +53,7 @@ def _loss(data, kernels: str | None) -> Loss:
     return Loss(data) if kernels is None else Loss(data, kernels=kernels)
 
 
-def workloads(traces: Path | None, evals: int, kernels: str | None) -> dict[str, float]:
+def workloads(traces: Path | None, evals: int, kernels: str | None, one_temperature: bool = False) -> dict[str, float]:
     """Both workloads on one kind of kernels; returns the rates and the compile time."""
     out: dict[str, float] = {}
     import groundsym
@@ -67,7 +69,8 @@ def workloads(traces: Path | None, evals: int, kernels: str | None) -> dict[str,
         from test_loss import kinematic_tower
         ds = kinematic_tower(16, seed=1)
     data = prepare(ds)
-    cfg = AnnealConfig(evals=evals * 4, restarts=4)
+    search = {"ladder": 1.0} if one_temperature and "ladder" in AnnealConfig.__dataclass_fields__ else {}
+    cfg = AnnealConfig(evals=evals * 4, restarts=4, **search)
     loss = _loss(data, kernels)
     state = start_restart(0, 0, loss, cfg)
     out["annealing"] = cpu_rate(lambda: advance(state, loss, cfg, evals), evals)
@@ -81,10 +84,11 @@ def workloads(traces: Path | None, evals: int, kernels: str | None) -> dict[str,
     return out
 
 
-def run_elsewhere(root: Path, traces: Path | None, evals: int) -> dict[str, float]:
+def run_elsewhere(root: Path, traces: Path | None, evals: int, one_temperature: bool) -> dict[str, float]:
     """The workloads on the code at ``root`` (another checkout), in a subprocess."""
     env = dict(os.environ, GROUNDSYM_BENCH_ROOT=str(root), PYTHONPATH=str(root))
     cmd = [sys.executable, str(Path(__file__).resolve()), "--evals", str(evals), "--json-only"]
+    cmd += ["--one-temperature"] if one_temperature else []
     if traces:
         cmd += ["--traces", str(traces.resolve())]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
@@ -103,16 +107,19 @@ def main() -> int:
     ap.add_argument("--evals", type=int, default=3000, help="evaluations of the annealing workload")
     ap.add_argument("--before", metavar="REV", help="also the code of this git revision, alternating, and the ratio")
     ap.add_argument("--rounds", type=int, default=2, help="alternations with --before (medians are reported)")
+    ap.add_argument("--one-temperature", action="store_true",
+                    help="anneal with ladder=1 (the search before commit 88e004a): compares kernels with older code")
     ap.add_argument("--json-only", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    one = args.one_temperature
     if args.json_only:
-        print(json.dumps(workloads(args.traces, args.evals, None)))
+        print(json.dumps(workloads(args.traces, args.evals, None, one)))
         return 0
-    now = workloads(args.traces, args.evals, None)
+    now = workloads(args.traces, args.evals, None, one)
     print(f"data: {now['transitions']} transitions, {now['objects']} objects"
           f"{' from ' + str(args.traces) if args.traces else ' (kinematic fixture world)'}; 1 unary + 1 binary")
     report("compiled kernels", now)
-    ref = workloads(args.traces, args.evals, "numpy")
+    ref = workloads(args.traces, args.evals, "numpy", one)
     report("numpy reference", ref)
     print(f"compiled / reference: annealing {now['annealing'] / ref['annealing']:.2f}x, random {now['random'] / ref['random']:.2f}x")
     if args.before:
@@ -122,9 +129,9 @@ def main() -> int:
         try:
             after, before = [now], []
             for k in range(args.rounds):
-                before.append(run_elsewhere(wt, args.traces, args.evals))
+                before.append(run_elsewhere(wt, args.traces, args.evals, one))
                 if k:
-                    after.append(workloads(args.traces, args.evals, None))
+                    after.append(workloads(args.traces, args.evals, None, one))
             med = {w: (float(np.median([r[w] for r in after])), float(np.median([r[w] for r in before])))
                    for w in ("annealing", "random")}
             report(f"code at {args.before} (median of {len(before)})", {**before[0], **{w: b for w, (_, b) in med.items()}})

@@ -57,7 +57,7 @@ def f1_scores(ds: Dataset, symbols: list[Symbol], unary: list[str], rel: str, sw
 def polish(loss: Loss, start: list[Symbol], evals: int, seed: int, n_unary: int) -> RestartState:
     """A low-temperature search of small perturbations from ``start`` (a population of 4 copies)."""
     cfg = AnnealConfig(n_unary=n_unary, n_binary=1, evals=evals, restarts=1, population=4, p_reseed=0.0,
-                       p_swap=0.0, t_start=0.005, t_end=0.0002, step=0.15)
+                       p_swap=0.0, t_start=0.005, t_end=0.0002, step=0.15, ladder=1.0)
     terms = loss(start)
     rng = np.random.default_rng(seed)
     state = RestartState(0, evals, 4, rng.bit_generator.state, [list(start)] * 4, [terms.total] * 4,

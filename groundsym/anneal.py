@@ -61,7 +61,8 @@ class AnnealConfig:
     chunk: int = 500             # evaluations per restart between checkpoints
     hop_steps: int = 0           # >0: late re-seeds are basin hops, the new symbol settled this many steps
     hop_after: float = 0.5       # share of a restart's budget after which re-seeds hop (with hop_steps > 0)
-    ladder: float = 1.0          # candidate k runs at ladder**k x the temperature; >1: replica exchange
+    ladder: float = 3.0          # candidate k runs at ladder**k x the temperature (replica exchange;
+                                 # 1: one temperature): cubes and balls 2 -> 5 of 10, the tower 7 -> 8
     p_exchange: float = 0.1      # with ladder > 1: per move, chance to offer neighbours' states a trade
 
     def __post_init__(self) -> None:
@@ -300,7 +301,10 @@ def advance(state: RestartState, loss: Loss, cfg: AnnealConfig, n_evals: int) ->
             a[slot], b[slot] = pop[other][slot], pop[c][slot]
             ta, tb = loss(a), loss(b)
             done += 2
-            delta = (ta.total - losses[c]) / rungs[c] + (tb.total - losses[other]) / rungs[other]
+            if rungs[c] == rungs[other]:     # one temperature: the plain sum (ladder=1 is the search before it)
+                delta = (ta.total + tb.total - losses[c] - losses[other]) / rungs[c]
+            else:
+                delta = (ta.total - losses[c]) / rungs[c] + (tb.total - losses[other]) / rungs[other]
             if delta <= 0 or rng.random() < math.exp(-delta / temp):
                 pop[c], pop[other], losses[c], losses[other] = a, b, ta.total, tb.total
                 for cand, t in ((a, ta), (b, tb)):
