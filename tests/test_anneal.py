@@ -233,16 +233,18 @@ def test_a_hop_settles_its_own_slot_greedily_and_costs_one_plus_hop_steps(data):
     assert path == sorted(path, reverse=True) and path[-1] == terms.total
 
 
-def test_hops_do_not_depend_on_where_rounds_end_or_on_workers(data):
-    """A hop costs 1 + hop_steps evaluations and may end a round past its end: the moves drawn stay
-    the same for any round length, and the whole budget is spent."""
-    runs = [anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2, chunk=chunk, hop_steps=12,
-                                                    hop_after=0.3), seed=7, workers=workers)
+@pytest.mark.parametrize("ladder", [1.0, 3.0])
+def test_hops_do_not_depend_on_where_rounds_end_or_on_workers(data, ladder):
+    """A hop costs 1 + hop_steps evaluations and may end a round past its end: over 4,000
+    evaluations the moves drawn stay the same for any round length and worker count, at one
+    temperature and on a ladder, and the whole budget is spent."""
+    runs = [anneal(data, LossConfig(), AnnealConfig(evals=4000, restarts=2, chunk=chunk, hop_steps=12,
+                                                    hop_after=0.3, ladder=ladder), seed=7, workers=workers)
             for chunk, workers in ((500, 1), (37, 2), (1, 1))]
     for other in runs[1:]:
         _same(runs[0], other)
-        assert other.evaluations == 600
-    plain = anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2), seed=7)
+        assert other.evaluations == 4000
+    plain = anneal(data, LossConfig(), AnnealConfig(evals=4000, restarts=2, ladder=ladder), seed=7)
     assert plain.terms != runs[0].terms                         # the hops did change the search
 
 
@@ -262,12 +264,24 @@ def test_replica_exchange_follows_the_parallel_tempering_rule():
 
 
 def test_a_ladder_does_not_depend_on_where_rounds_end_or_on_workers(data):
-    runs = [anneal(data, LossConfig(), AnnealConfig(evals=600, restarts=2, chunk=chunk, ladder=3.0,
-                                                    p_exchange=0.3, hop_steps=5), seed=8, workers=workers)
+    """Exchanges cost no evaluation and are drawn before a move, so over 4,000 evaluations the
+    rounds' length and the workers change nothing."""
+    runs = [anneal(data, LossConfig(), AnnealConfig(evals=4000, restarts=2, chunk=chunk, ladder=3.0,
+                                                    p_exchange=0.3), seed=8, workers=workers)
             for chunk, workers in ((500, 1), (41, 2), (1, 1))]
     for other in runs[1:]:
         _same(runs[0], other)
-        assert other.evaluations == 600
+        assert other.evaluations == 4000
+    less = anneal(data, LossConfig(), AnnealConfig(evals=4000, restarts=2, ladder=3.0, p_exchange=0.05), seed=8)
+    assert less.terms != runs[0].terms                          # the exchanges do act
+
+
+def test_one_temperature_draws_no_exchanges(data):
+    """With ladder=1 there is nothing to exchange and no random number is drawn for it: the search
+    is the same whatever p_exchange says (the search of before the ladder)."""
+    a, b = (anneal(data, LossConfig(), AnnealConfig(evals=2000, restarts=2, ladder=1.0, p_exchange=p), seed=3)
+            for p in (0.0, 0.9))
+    _same(a, b)
     for bad in ({"ladder": 0.5}, {"ladder": float("inf")}, {"p_exchange": 2.0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             AnnealConfig(**bad)
