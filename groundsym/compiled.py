@@ -6,8 +6,9 @@ class (bit-parallel enumeration, ``Loss._nearest_enumerated``). Both are loops o
 objects and a few thousand permutations, which numpy can only vectorise with large temporaries.
 The kernels here compute the *same* integers (64-bit hashes that wrap the same way, the same
 object orders, distances, first minimising permutations), so the loss is bit for bit the same
-with or without them; ``tests/test_compiled.py`` checks that over thousands of annealing
-evaluations. The numpy code stays the reference (``Loss(..., kernels="numpy")``).
+with or without them (the nearest classes come from a branch and bound over the orders the
+reference enumerates, cut only where no order can beat the first minimiser the enumeration
+returns); ``tests/test_compiled.py`` checks that over thousands of annealing evaluations. The numpy code stays the reference (``Loss(..., kernels="numpy")``).
 
 numba compiles on first use and caches the machine code on disk (``cache=True``: beside this
 module, or in ``NUMBA_CACHE_DIR``), so a process pays the compilation once and later processes
@@ -401,38 +402,77 @@ def _hash_bytes(x):
 
 
 @njit(cache=True)
-def canonical_batch(unary, binary, lock, ucode, ecode, memo):
+def _pack_state(unary, binary, lock, raw):
+    """A small state's own encoding as two 64-bit words, written into ``raw`` (16 bytes), and their hash.
+
+    For M <= 7 objects whose M*K + M*M*L bits fit a word: the bits in one word, the locks (a byte
+    each) and the shape (K, L) in the other, so equal words mean equal states of the same shape.
+    Cheaper than :func:`_encode_row` and :func:`_hash_bytes` on the memo's hit path."""
+    m, k = unary.shape
+    l = binary.shape[2]
+    bits = np.uint64(0)
+    j = np.uint64(0)
+    for i in range(m):
+        for a in range(k):
+            if unary[i, a]:
+                bits |= np.uint64(1) << j
+            j += np.uint64(1)
+    for i in range(m):
+        for i2 in range(m):
+            for a in range(l):
+                if binary[i, i2, a]:
+                    bits |= np.uint64(1) << j
+                j += np.uint64(1)
+    meta = np.uint64(k * 16 + l) << np.uint64(56)
+    for i in range(m):
+        meta |= np.uint64(lock[i] & 255) << np.uint64(8 * i)
+    for t in range(8):
+        raw[t] = np.uint8((bits >> np.uint64(8 * t)) & np.uint64(255))
+        raw[8 + t] = np.uint8((meta >> np.uint64(8 * t)) & np.uint64(255))
+    return np.int64(_mix(bits ^ _mix(meta + P1)) >> np.uint64(1))
+
+
+@njit(cache=True)
+def canonical_batch(unary, binary, lock, memo):
     """canonical.canonical_forms compiled whole, with a per-state memo.
 
     A state's form and order are functions of the state alone, so they are kept in ``memo`` (a
     numba typed dict: hash of the state's own encoding -> its encoding, form and order, checked
-    byte for byte on every hit; a hash collision is computed afresh and not stored). Returns
-    (forms (N, R) uint8, perms (N, M) int64).
+    byte for byte on every hit; a hash collision is computed afresh and not stored). The object
+    and edge codes (``canonical.object_codes``/``codes``) are computed for the states the memo
+    does not hold only. Returns (forms (N, R) uint8, perms (N, M) int64).
     """
-    n, m = ucode.shape
+    n, m = lock.shape
     k = unary.shape[2]
     l = binary.shape[3]
     r_len = m + m * k + m * m * l
     forms = np.empty((n, r_len), dtype=np.uint8)
     perms = np.empty((n, m), dtype=np.int64)
     ident = np.arange(m)
+    packable = m <= 7 and m * k + m * m * l <= 64 and k < 16 and l < 16
+    r_key = 16 if packable else r_len
+    raw = np.empty(r_key, dtype=np.uint8)
     for i in range(n):
-        raw = _encode_row(unary[i], binary[i], lock[i], ident)
-        h = _hash_bytes(raw)
+        if packable:
+            h = _pack_state(unary[i], binary[i], lock[i], raw)
+        else:
+            raw = _encode_row(unary[i], binary[i], lock[i], ident)
+            h = _hash_bytes(raw)
         if h in memo:
             entry = memo[h]
-            if _equal(entry[:r_len], raw):
-                forms[i] = entry[r_len:2 * r_len]
+            if len(entry) == r_key + r_len + m and _equal(entry[:r_key], raw):
+                forms[i] = entry[r_key:r_key + r_len]
                 for p in range(m):
-                    perms[i, p] = entry[2 * r_len + p]
+                    perms[i, p] = entry[r_key + r_len + p]
                 continue
             store = False
         else:
             store = True
+        ucode, ecode = _codes_row(unary[i], binary[i], lock[i])
         col = np.empty(m, dtype=np.uint64)
         for x in range(m):
-            col[x] = _mix(np.uint64(ucode[i, x]) + P0)
-        refine_row(col, ecode[i])
+            col[x] = _mix(np.uint64(ucode[x]) + P0)
+        refine_row(col, ecode)
         perm = _order_row(col, lock[i])
         need = False
         groups = ident
@@ -443,23 +483,23 @@ def canonical_batch(unary, binary, lock, ucode, ecode, memo):
                     tie = True
                     break
             if tie:
-                groups = twin_groups_row(ucode[i], ecode[i])
+                groups = twin_groups_row(ucode, ecode)
                 for c in range(m - 1):
                     if col[perm[c]] == col[perm[c + 1]] and groups[perm[c]] != groups[perm[c + 1]]:
                         need = True
                         break
         if need:
-            form, perm = individualise(unary[i], binary[i], lock[i], ecode[i], groups, col)
+            form, perm = individualise(unary[i], binary[i], lock[i], ecode, groups, col)
         else:
             form = _encode_row(unary[i], binary[i], lock[i], perm)
         forms[i] = form
         perms[i] = perm
         if store:
-            entry = np.empty(2 * r_len + m, dtype=np.uint8)
-            entry[:r_len] = raw
-            entry[r_len:2 * r_len] = form
+            entry = np.empty(r_key + r_len + m, dtype=np.uint8)
+            entry[:r_key] = raw
+            entry[r_key:r_key + r_len] = form
             for p in range(m):
-                entry[2 * r_len + p] = np.uint8(perm[p])
+                entry[r_key + r_len + p] = np.uint8(perm[p])
             memo[h] = entry
     return forms, perms
 
@@ -479,154 +519,8 @@ def _popcount(x):
     return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)
 
 
-@njit(cache=True)
-def state_words(unary, binary):
-    """(C, W) uint64: each state's flat bits (unary M*K, then binary M*M*L), bit j in word j // 64."""
-    c, m, k = unary.shape
-    l = binary.shape[3]
-    nbits = m * k + m * m * l
-    w = (nbits + 63) // 64
-    out = np.zeros((c, max(w, 1)), dtype=np.uint64)
-    for s in range(c):
-        for i in range(m):
-            for a in range(k):
-                if unary[s, i, a]:
-                    j = i * k + a
-                    out[s, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
-            for i2 in range(m):
-                for a in range(l):
-                    if binary[s, i, i2, a]:
-                        j = m * k + (i * m + i2) * l + a
-                        out[s, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
-    return out
-
-
-@njit(cache=True)
-def _kept_orders(groups, lock):
-    """Loss._enumerated_orders as permutations (rows: objects in new position order), in
-    itertools (lexicographic) order: the action's arguments first (locks descending) and
-    interchangeable objects in increasing order, generated directly by depth-first search."""
-    m = len(groups)
-    target = -np.sort(-lock)
-    cap = 64
-    out = np.empty((cap, m), dtype=np.int64)
-    n = 0
-    seq = np.empty(m, dtype=np.int64)
-    nxt = np.zeros(m + 1, dtype=np.int64)     # next object to try at each depth
-    used = np.zeros(m, dtype=np.bool_)
-    depth = 0
-    while depth >= 0:
-        if depth == m:
-            if n == cap:
-                cap *= 2
-                grown = np.empty((cap, m), dtype=np.int64)
-                grown[:n] = out[:n]
-                out = grown
-            out[n] = seq
-            n += 1
-            depth -= 1
-            used[seq[depth]] = False
-            continue
-        placed = False
-        o = nxt[depth]
-        while o < m:
-            ok = not used[o] and lock[o] == target[depth]
-            if ok:
-                for e in range(o):            # earlier twins of o must already be placed
-                    if groups[e] == groups[o] and not used[e]:
-                        ok = False
-                        break
-            if ok:
-                seq[depth] = o
-                used[o] = True
-                nxt[depth] = o + 1
-                nxt[depth + 1] = 0
-                depth += 1
-                placed = True
-                break
-            o += 1
-        if not placed:
-            nxt[depth] = 0
-            depth -= 1
-            if depth >= 0:
-                used[seq[depth]] = False
-    return out[:n]
-
-
-@njit(cache=True)
-def _orders_of(groups, lock, cache):
-    """:func:`_kept_orders` as int8, memoised in ``cache`` by the structure (groups, locks)."""
-    m = len(groups)
-    key = np.int64(0)
-    cacheable = True
-    for i in range(m):
-        if lock[i] >= 16:
-            cacheable = False
-        key |= np.int64(groups[i]) << np.int64(3 * i)
-        key |= np.int64(lock[i] & 15) << np.int64(21 + 4 * i)
-    if cacheable and key in cache:
-        return cache[key]
-    orders = _kept_orders(groups, lock).astype(np.int8)
-    if cacheable:
-        cache[key] = orders
-    return orders
-
-
-@njit(cache=True)
-def _permuted_words(unary, binary, orders, w):
-    """(P, W) the query's bits under each order (position p takes object orders[r, p]).
-
-    Only the set bits are placed (states are sparse): per order, each lands where the order
-    sends its objects."""
-    m, k = unary.shape
-    l = binary.shape[2]
-    n_set = 0
-    for i in range(m):
-        for a in range(k):
-            n_set += unary[i, a] != 0
-        for i2 in range(m):
-            for a in range(l):
-                n_set += binary[i, i2, a] != 0
-    src_i = np.empty(n_set, dtype=np.int64)      # object, second object (-1: unary), column
-    src_j = np.empty(n_set, dtype=np.int64)
-    col = np.empty(n_set, dtype=np.int64)
-    t = 0
-    for i in range(m):
-        for a in range(k):
-            if unary[i, a]:
-                src_i[t], src_j[t], col[t] = i, -1, a
-                t += 1
-        for i2 in range(m):
-            for a in range(l):
-                if binary[i, i2, a]:
-                    src_i[t], src_j[t], col[t] = i, i2, a
-                    t += 1
-    p = orders.shape[0]
-    out = np.zeros((p, w), dtype=np.uint64)
-    pos = np.empty(m, dtype=np.int64)
-    for r in range(p):
-        for q in range(m):
-            pos[orders[r, q]] = q
-        for t in range(n_set):
-            if src_j[t] < 0:
-                j = pos[src_i[t]] * k + col[t]
-            else:
-                j = m * k + (pos[src_i[t]] * m + pos[src_j[t]]) * l + col[t]
-            out[r, j >> 6] |= np.uint64(1) << np.uint64(j & 63)
-    return out
-
-
 _SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
 _DIST_SHIFT = 32
-
-
-@njit(cache=True)
-def _pack(dist, orders, f, m):
-    """One pair's exact distance and sigma (query position -> candidate position) as an int64."""
-    v = np.int64(dist) << np.int64(_DIST_SHIFT)
-    for p in range(m):
-        v |= np.int64(p) << np.int64(_SIGMA_BITS * orders[f, p])
-    return v
 
 
 @njit(cache=True)
@@ -719,36 +613,183 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
     return s + 0.5 * h
 
 
+_BOUND = np.int64(1) << np.int64(31)     # pair memo flag: the entry is a lower bound, not the distance
+
+
 @njit(cache=True)
-def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, order_cache):
+def _object_masks(unary, binary):
+    """Per class, object sets as m-bit masks: ``um`` (C, K) the objects holding each unary symbol,
+    ``out``/``inn`` (C, M, L) each object's out- and in-neighbours under each binary symbol."""
+    c_n, m, k = unary.shape
+    l = binary.shape[3]
+    um = np.zeros((c_n, k), dtype=np.int64)
+    out = np.zeros((c_n, m, l), dtype=np.int64)
+    inn = np.zeros((c_n, m, l), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            for a in range(k):
+                if unary[c, x, a]:
+                    um[c, a] |= np.int64(1) << np.int64(x)
+            for y in range(m):
+                for a in range(l):
+                    if binary[c, x, y, a]:
+                        out[c, x, a] |= np.int64(1) << np.int64(y)
+                        inn[c, y, a] |= np.int64(1) << np.int64(x)
+    return um, out, inn
+
+
+@njit(cache=True, inline="always")
+def _pc(x):
+    return np.int64(_popcount(np.uint64(x)))
+
+
+@njit(cache=True, inline="always")
+def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
+    """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
+    has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
+    per symbol, the unary count difference among the rest, each placed object's out- and
+    in-degree difference into the rest, and the edge count difference within the rest. The edge
+    sets are disjoint and none is counted yet, so the sum is admissible."""
+    k = umq.shape[0]
+    l = outq.shape[1]
+    m = outq.shape[0]
+    r = np.int64(0)
+    for a in range(k):
+        r += abs(_pc(umq[a] & rq) - _pc(umc[a] & rc))
+    for a in range(l):
+        for p in range(depth):
+            x = seq[p]
+            r += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc))
+            r += abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
+        eq_n = np.int64(0)
+        ec_n = np.int64(0)
+        for y in range(m):
+            if (rq >> np.int64(y)) & np.int64(1):
+                eq_n += _pc(outq[y, a] & rq)
+            if (rc >> np.int64(y)) & np.int64(1):
+                ec_n += _pc(outc[y, a] & rc)
+        r += abs(eq_n - ec_n)
+    return r
+
+
+@njit(cache=True)
+def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cutoff, lo,
+                   seq, used, nxt, cost):
+    """The distance of a query to a candidate class and its first minimising order, by branch and bound.
+
+    Walks the kept orders of the enumeration (the query's object placed at each position, in
+    lexicographic order) depth first, adding each placement's mismatches as it goes: the unary
+    bits (``uq``/``uc``: per object a word of its unary bits) and the edges (``eq``/``ec``: per
+    pair a word of its binary bits) to the objects already placed, both ways; :func:`_rest_bound`
+    bounds what the rest must add. A branch whose bound exceeds ``cutoff`` (before a full order
+    is found) or reaches the best full order so far is cut: neither can hold a first minimiser
+    the enumeration would return, so the result is the enumeration's (distance, order) whenever
+    the distance is at most ``cutoff``. A full order at ``lo`` (a lower bound) ends the walk, as
+    the enumeration stops there.
+
+    Returns ``(d, sigma)``, sigma packed as :func:`_pack` does; ``d`` is -1 when every order
+    exceeds ``cutoff`` (nothing is known then beyond "more than cutoff").
+    """
+    m = len(lock_q)
+    full = (np.int64(1) << np.int64(m)) - np.int64(1)
+    best = np.int64(-1)
+    best_v = np.int64(0)
+    used[:] = False
+    depth = 0
+    nxt[0] = 0
+    cost[0] = 0
+    rq = full
+    while depth >= 0:
+        if depth == m:
+            d = cost[m]
+            if best < 0 or d < best:
+                best = d
+                best_v = np.int64(0)
+                for p in range(m):
+                    best_v |= np.int64(p) << np.int64(_SIGMA_BITS * seq[p])
+                if d <= lo:
+                    return best, best_v
+            depth -= 1
+            used[seq[depth]] = False
+            rq |= np.int64(1) << np.int64(seq[depth])
+            continue
+        placed = False
+        o = nxt[depth]
+        rc = full & ~((np.int64(1) << np.int64(depth + 1)) - np.int64(1))
+        while o < m:
+            ok = not used[o] and lock_q[o] == target[depth]
+            if ok:
+                for e in range(o):            # earlier twins of o must already be placed
+                    if groups[e] == groups[o] and not used[e]:
+                        ok = False
+                        break
+            if ok:
+                c = cost[depth] + _pc(uq[o] ^ uc[depth]) + _pc(eq[o, o] ^ ec[depth, depth])
+                for p in range(depth):
+                    x = seq[p]
+                    c += _pc(eq[o, x] ^ ec[depth, p]) + _pc(eq[x, o] ^ ec[p, depth])
+                limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
+                seq[depth] = o
+                rq_o = rq & ~(np.int64(1) << np.int64(o))
+                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc) < limit:
+                    used[o] = True
+                    rq = rq_o
+                    nxt[depth] = o + 1
+                    cost[depth + 1] = c
+                    nxt[depth + 1] = 0
+                    depth += 1
+                    placed = True
+                    break
+            o += 1
+        if not placed:
+            nxt[depth] = 0
+            depth -= 1
+            if depth >= 0:
+                used[seq[depth]] = False
+                rq |= np.int64(1) << np.int64(seq[depth])
+    return best, best_v
+
+
+@njit(cache=True)
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
     """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
     canonical order; ``profile`` (C, P) as ``loss._profiles``; ``lone`` (Q,) class indices;
     ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
     Candidates are visited in order of the profile bound and skipped once it exceeds the best
-    distance; a candidate's permutations stop at one that reaches its bound.
+    distance. A pair's distance is found by branch and bound over the enumeration's orders
+    (:func:`_pair_distance`) cut at the query's best distance so far: a candidate that cannot
+    tie it needs no exact distance.
 
     ``ids`` (C,) names each class by its canonical encoding (the caller interns the encodings)
-    and ``memo`` (a numba typed dict) holds the exact distance and first minimising permutation
-    of every pair computed before: both are functions of the two encodings alone, so a pair is
-    computed once per process however often the two classes meet again.
+    and ``memo`` (a numba typed dict) holds, per pair computed before, either the exact distance
+    and first minimising order or a lower bound (flag :data:`_BOUND`): both are functions of the
+    two encodings alone, so what ran before changes the work, never the result.
 
     Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
     sorted by query, then class: sigma maps the query's canonical positions onto the class's.
     """
     c_n, m = lock.shape
     q_n = len(lone)
-    words = state_words(unary, binary)
-    w = words.shape[1]
     best = np.full(q_n, INF)
     n_hits = 0
     hq = np.empty(4 * q_n + 4, dtype=np.int64)
     hv = np.empty(4 * q_n + 4, dtype=np.int64)
     hc = np.empty(4 * q_n + 4, dtype=np.int64)
     packed = np.empty(c_n, dtype=np.int64)
-    mask = np.int64((1 << _DIST_SHIFT) - 1)
+    sigma_mask = _BOUND - np.int64(1)
     pinned, pin, pu, pcount, pdeg, psorted = _pinned_tables(unary, binary, lock)
+    ubits = np.int64((1 << n_unary) - 1)
+    uword = np.empty((c_n, m), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            uword[c, x] = ucode[c, x] & ubits
+    um, out, inn = _object_masks(unary, binary)
+    seq = np.empty(m, dtype=np.int64)
+    used = np.zeros(m, dtype=np.bool_)
+    nxt = np.zeros(m + 1, dtype=np.int64)
+    cost = np.zeros(m + 1, dtype=np.int64)
     # compatible classes (same primitive, arguments at the same positions) form groups; a query
     # looks at its own group only, in increasing class order
     grp = np.empty(c_n, dtype=np.int64)
@@ -792,9 +833,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         if n_c == 0:
             continue
         order = np.argsort(cb[:n_c], kind="mergesort")
-        orders = np.empty((0, m), dtype=np.int8)
-        qw = np.empty((0, w), dtype=np.uint64)
-        have_orders = False
+        groups = np.empty(0, dtype=np.int64)
+        target = np.empty(0, dtype=np.int64)
+        have_groups = False
         b = INF
         base = ids[q] << np.int64(32)
         for oi in range(n_c):
@@ -804,24 +845,22 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 break
             key = base | ids[c]
             v = memo.get(key, np.int64(-1))
-            if v < 0:
-                if not have_orders:
-                    orders = _orders_of(twin_groups_row(ucode[q], ecode[q]), lock[q], order_cache)
-                    qw = _permuted_words(unary[q], binary[q], orders, w)
-                    have_orders = True
-                dmin = INF
-                arg = 0
-                for r in range(len(orders)):
-                    d = np.uint64(0)
-                    for x in range(w):
-                        d += _popcount(qw[r, x] ^ words[c, x])
-                    fd = float(d)
-                    if fd < dmin:
-                        dmin = fd
-                        arg = r
-                        if fd <= lo:
-                            break
-                v = _pack(dmin, orders, arg, m)
+            if v >= 0 and (v & _BOUND) != 0 and float(v >> np.int64(_DIST_SHIFT)) > b:
+                dist[c] = float(v >> np.int64(_DIST_SHIFT))     # known to exceed the best: no tie
+                continue
+            if v < 0 or (v & _BOUND) != 0:
+                if not have_groups:
+                    groups = twin_groups_row(ucode[q], ecode[q])
+                    target = -np.sort(-lock[q])
+                    have_groups = True
+                cut = np.int64(1 << 30) if b == INF else np.int64(b)
+                d, sv = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
+                                       inn[c], lock[q], target, groups,
+                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost)
+                if d < 0:
+                    v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
+                else:
+                    v = (d << np.int64(_DIST_SHIFT)) | sv
                 memo[key] = v
             packed[c] = v
             dv = float(v >> np.int64(_DIST_SHIFT))
@@ -838,7 +877,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     hc = np.concatenate((hc, np.empty_like(hc)))
                 hq[n_hits] = qi
                 hc[n_hits] = c
-                hv[n_hits] = packed[c] & mask
+                hv[n_hits] = packed[c] & sigma_mask
                 n_hits += 1
             dist[c] = INF
     hs = np.empty((n_hits, m), dtype=np.int64)
@@ -867,6 +906,13 @@ def _codes(u, b, lock):
                     e += np.int64(b[i, x, y, a]) << np.int64(a)
                 ecode[i, x, y] = e
     return ucode, ecode
+
+
+@njit(cache=True)
+def _codes_row(u, b, lock):
+    """:func:`_codes` of one state: (M,) object codes, (M, M) edge codes."""
+    ucode, ecode = _codes(u.reshape((1,) + u.shape), b.reshape((1,) + b.shape), lock.reshape((1, -1)))
+    return ucode[0], ecode[0]
 
 
 @njit(cache=True)
@@ -951,10 +997,47 @@ def _profiles_of(u, b, rows):
 
 
 @njit(cache=True)
+def _packed_keys(forms, label, m):
+    """Each state's class key (canonical form, then primitive label) packed into 64-bit words that
+    compare, as unsigned integers word by word, in the order the key's bytes compare (memcmp).
+
+    The form's first ``m`` bytes (the locks) and the label keep 8 bits each, the 0/1 bytes of the
+    truth values take one bit each, most significant first: the same fields at the same places
+    in every row, so the first differing field decides both comparisons. Sorting and hashing two
+    or three words is what grouping and interning then cost, instead of some 64 bytes. A last word
+    holds the shape, so that the interned keys of abstractions with other symbol counts never
+    coincide."""
+    n, r_len = forms.shape
+    n_bits = 8 * m + (r_len - m) + 8
+    w = (n_bits + 63) // 64
+    out = np.zeros((n, w + 1), dtype=np.uint64)
+    for i in range(n):
+        out[i, w] = np.uint64(r_len) | (np.uint64(m) << np.uint64(32))   # the shape: keys of other shapes differ
+        pos = 0
+        for t in range(r_len + 1):
+            width = 8 if (t < m or t == r_len) else 1
+            v = np.uint64(label[i] & 255) if t == r_len else np.uint64(forms[i, t])
+            for bit in range(width - 1, -1, -1):
+                if (v >> np.uint64(bit)) & np.uint64(1):
+                    out[i, pos >> 6] |= np.uint64(1) << np.uint64(63 - (pos & 63))
+                pos += 1
+    return out
+
+
+@njit(cache=True)
+def _hash_words(x):
+    """A 63-bit hash of a row of 64-bit words (memo keys; hits are checked)."""
+    h = np.uint64(0xCBF29CE484222325) ^ np.uint64(len(x))
+    for i in range(len(x)):
+        h = _mix(h ^ x[i])
+    return np.int64(h >> np.uint64(1))
+
+
+@njit(cache=True)
 def _intern(row, table, store):
     """The id of ``row`` in ``store`` (a typed list of rows), added if new; ``table`` maps a hash
     to an id and is probed linearly past rows that only share the hash."""
-    h = _hash_bytes(row)
+    h = _hash_words(row)
     while h in table:
         i = table[h]
         if len(store[i]) == len(row) and _equal(store[i], row):
@@ -967,25 +1050,19 @@ def _intern(row, table, store):
 
 
 @njit(cache=True)
-def neighbourhood(u, b, lock, label, state_memo, table, store, memo, order_cache):
+def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
     """Loss.neighbours compiled whole (canonical forms, classes, nearest classes of lone classes).
 
     ``u`` (N, M, K), ``b`` (N, M, M, L), ``lock`` (N, M) int64, ``label`` (N,) int64 (< 256).
     ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
-    (canonical form and primitive) for the pair ``memo`` of :func:`nearest_classes`, which also
-    takes ``order_cache``. Returns
-    the fields of ``loss.Neighbourhood`` (cls, perms, lone, best, hit query, class, sigma) and the
+    (canonical form and primitive, :func:`_packed_keys`) for the pair ``memo`` of
+    :func:`nearest_classes`. Returns the fields of ``loss.Neighbourhood`` (cls, perms, lone, best, hit query, class, sigma) and the
     sizes of the state memo, the interned keys and the pair memo (``len`` of a typed container called from Python
     compiles on first use, seconds, and costs a dispatch every time).
     """
     n, m = lock.shape
-    ucode, ecode = _codes(u, b, lock)
-    forms, perms = canonical_batch(u, b, lock, ucode, ecode, state_memo)
-    r_len = forms.shape[1]
-    keys = np.empty((n, r_len + 1), dtype=np.uint8)
-    keys[:, :r_len] = forms
-    for i in range(n):
-        keys[i, r_len] = np.uint8(label[i])
+    forms, perms = canonical_batch(u, b, lock, state_memo)
+    keys = _packed_keys(forms, label, m)
     first, cls = group_keys(keys)
     c_n = len(first)
     sizes = np.zeros(c_n, dtype=np.int64)
@@ -1019,14 +1096,14 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo, order_cache
         ids[c] = _intern(keys[f], table, store)
     profile = _profiles_of(u, b, first)
     rucode, recode = _codes(ru, rb, rl)
-    best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo, order_cache)
+    best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo)
     return cls, perms, lone, best, hq, hc, hs, (len(state_memo), len(store), len(memo))
 
 
 def new_intern():
     """An empty interning table and store for :func:`neighbourhood` (hash -> id, id -> key row)."""
     table = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
-    store = numba.typed.List.empty_list(numba.types.uint8[::1])
+    store = numba.typed.List.empty_list(numba.types.uint64[::1])
     return table, store
 
 
@@ -1048,11 +1125,6 @@ def rbf_holds(space, centre, widths):
 def new_memo():
     """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
     return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
-
-
-def new_order_cache():
-    """An empty cache of enumerated orders for :func:`nearest_classes` (int64 -> int8[:, :])."""
-    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int8[:, :])
 
 
 # ----------------------------------------------------------------------------- mixture entries
@@ -1338,7 +1410,7 @@ def warm_up() -> float:
         needing_search(ucode, ecode, col, perms)
         prof = np.zeros((2, 7), dtype=np.int64)
         nearest_classes(u, b, lock, np.zeros(2, dtype=np.int64), prof, 1, np.array([0, 1]), ucode, ecode,
-                        np.arange(2, dtype=np.int64), new_memo(), new_order_cache())
+                        np.arange(2, dtype=np.int64), new_memo())
         cls = np.array([0, 1], dtype=np.int64)
         one = np.zeros(0, dtype=np.int64)
         transition_entries(u, b, np.array([0, 0]), np.array([1, 1]), np.array([[0, 1, 2], [0, 1, 2]]), cls,
@@ -1350,13 +1422,12 @@ def warm_up() -> float:
         mixture_sums(item, np.exp(diff), weight, 2)
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
-        neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), new_memo(),
-                      new_order_cache())
+        neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), new_memo())
         from .canonical import canonical_forms    # a directed 4-cycle needs individualisation
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)
         for i in range(4):
             cyc[0, i, (i + 1) % 4, 0] = 1
         canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64), kernels="numba")
         z4 = np.zeros((1, 4), dtype=np.int64)
-        canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, z4, cyc[..., 0].astype(np.int64), new_state_memo())
+        canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, new_state_memo())
     return time.perf_counter() - t0

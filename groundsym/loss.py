@@ -45,7 +45,6 @@ from typing import Any, Sequence
 import numpy as np
 
 from . import compiled
-from .canonical import codes, object_codes
 from .errors import UserError
 from .relational import (ENUMERATE_MAX, INF, Encoded, _words, all_permutations, canonical_forms,
                          exact_state_distance, permutation_positions, permuted_words, root_bounds, twin_groups, twin_groups_of)
@@ -223,7 +222,6 @@ class Loss:
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
         self._pair_memo = compiled.new_memo() if kernels == "numba" else None
-        self._order_cache = compiled.new_order_cache() if kernels == "numba" else None
         self._state_memo = compiled.new_state_memo() if kernels == "numba" else None
         self._intern = compiled.new_intern() if kernels == "numba" else None
         self._memo_sizes = (0, 0, 0)
@@ -294,7 +292,7 @@ class Loss:
             if len(self._state_memo) > 200_000:
                 self._state_memo = compiled.new_state_memo()
             lock64 = lock.astype(np.int64, copy=False)
-            forms, perms = compiled.canonical_batch(u, b, lock64, object_codes(u, lock64), codes(b), self._state_memo)
+            forms, perms = compiled.canonical_batch(u, b, lock64, self._state_memo)
         else:
             forms, perms = canonical_forms(u, b, lock, self._canon_cache, self.kernels)
         keys = np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1)
@@ -324,7 +322,7 @@ class Loss:
             self._intern, self._pair_memo = compiled.new_intern(), compiled.new_memo()
         *fields, self._memo_sizes = compiled.neighbourhood(
             u, b, np.asarray(lock, dtype=np.int64), np.asarray(label, dtype=np.int64),
-            self._state_memo, *self._intern, self._pair_memo, self._order_cache)
+            self._state_memo, *self._intern, self._pair_memo)
         return Neighbourhood(*fields)
 
     def _nearest_enumerated(self, lone: list[int], t: "_ClassTable") -> dict[int, tuple[float, list[tuple[int, np.ndarray]]]]:

@@ -94,6 +94,78 @@ def test_pinned_bound_never_exceeds_the_exact_distance():
     assert tighter >= 1000, tighter   # 1,806 of 3,000 with this seed
 
 
+def _kept_orders_brute(lock, groups):
+    """The orders the reference enumerates, in its (lexicographic) order: position p takes an
+    object whose lock is the p-th largest, interchangeable objects in increasing order."""
+    import itertools
+    m = len(lock)
+    target = sorted(lock, reverse=True)
+    for seq in itertools.permutations(range(m)):
+        if any(lock[seq[p]] != target[p] for p in range(m)):
+            continue
+        pos = {o: p for p, o in enumerate(seq)}
+        if all(pos[e] < pos[o] for o in range(m) for e in range(o) if groups[e] == groups[o]):
+            yield seq
+
+
+def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
+    """Branch and bound against brute force over 3,000 random pairs (2-7 objects, 1-2 unary and
+    1-2 binary symbols, locked arguments, states with twins): the distance and the first order
+    reaching it, whenever the distance is at most the cutoff; -1 (nothing found) otherwise; and
+    the walk stops at a full order within a lower bound, as the enumeration does."""
+    rng = np.random.default_rng(11)
+    cut_hits = 0
+    for trial in range(3000):
+        m, k, l = int(rng.integers(2, 8)), int(rng.integers(1, 3)), int(rng.integers(1, 3))
+        u = (rng.random((2, m, k)) < rng.uniform(0.0, 0.5)).astype(np.uint8)
+        b = (rng.random((2, m, m, l)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
+        b[:, np.arange(m), np.arange(m)] = 0
+        n_pin = int(rng.integers(0, min(m, 2) + 1))
+        lock = np.zeros((2, m), dtype=np.int64)
+        lock[:, :n_pin] = [2, 1][2 - n_pin:]
+        ucode, ecode = compiled._codes(u, b, lock)
+        groups = compiled.twin_groups_row(ucode[0], ecode[0])
+        best, first = None, None
+        for seq in _kept_orders_brute(list(lock[0]), list(groups)):
+            d = int((u[0][list(seq)] != u[1]).sum() + (b[0][np.ix_(seq, seq)] != b[1]).sum())
+            if best is None or d < best:
+                best, first = d, seq
+        cutoff = int(rng.integers(0, best + 3)) if trial % 2 else 1 << 30
+        um, out, inn = compiled._object_masks(u, b)
+        uword = ucode & ((1 << k) - 1)
+        scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
+        target = -np.sort(-lock[0])
+        d, v = compiled._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
+                                       inn[1], lock[0], target, groups, cutoff, -1, *scratch)
+        if best > cutoff:
+            assert d == -1
+            cut_hits += 1
+            continue
+        sigma = [(v >> (3 * o)) & 7 for o in range(m)]
+        assert d == best and sigma == [first.index(o) for o in range(m)], (trial, d, best)
+        # with the exact distance as the lower bound, the first order reaching it is returned
+        d2, v2 = compiled._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
+                                         out[1], inn[1], lock[0], target, groups, 1 << 30, best, *scratch)
+        assert (d2, v2) == (d, v)
+    assert cut_hits >= 300, cut_hits
+
+
+def test_packed_keys_sort_as_their_bytes():
+    """Class keys packed into words group and number classes exactly as the byte rows do
+    (locks and labels a byte each, truth values a bit each), on 300 random batches."""
+    from groundsym.loss import group_rows
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        n, m, bits = int(rng.integers(1, 80)), int(rng.integers(1, 8)), int(rng.integers(0, 120))
+        forms = np.concatenate([rng.integers(0, 3, size=(n, m)) * int(rng.integers(1, 120)),
+                                rng.random((n, bits)) < rng.uniform(0.1, 0.9)], axis=1).astype(np.uint8)
+        forms[rng.integers(0, n, size=n // 2)] = forms[rng.integers(0, n, size=n // 2)]   # repeated rows
+        label = rng.integers(0, 4, size=n).astype(np.int64) * 60
+        first, cls = compiled.group_keys(compiled._packed_keys(forms, label, m))
+        ref_first, ref_cls = group_rows(np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1))
+        assert np.array_equal(first, ref_first) and np.array_equal(cls, ref_cls)
+
+
 def test_grouping_kernel_equals_group_rows():
     """Groups numbered in byte order of the rows, each group's first row its smallest index."""
     from groundsym.loss import group_rows
