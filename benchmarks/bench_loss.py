@@ -134,6 +134,7 @@ def main() -> int:
                     after.append(workloads(args.traces, args.evals, None, one))
             med = {w: (float(np.median([r[w] for r in after])), float(np.median([r[w] for r in before])))
                    for w in ("annealing", "random")}
+            report(f"this code (median of {len(after)})", {**now, **{w: a for w, (a, _) in med.items()}})
             report(f"code at {args.before} (median of {len(before)})", {**before[0], **{w: b for w, (_, b) in med.items()}})
             print(f"now / {args.before}: annealing {med['annealing'][0] / med['annealing'][1]:.2f}x, "
                   f"random {med['random'][0] / med['random'][1]:.2f}x (medians of {len(after)} and {len(before)} runs)")

@@ -890,29 +890,32 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
 @njit(cache=True)
 def _codes(u, b, lock):
     """canonical.object_codes and canonical.codes of a batch: (N, M) object codes, (N, M, M) edge codes."""
-    n, m, k = u.shape
-    l = b.shape[3]
+    n, m = lock.shape
     ucode = np.empty((n, m), dtype=np.int64)
     ecode = np.empty((n, m, m), dtype=np.int64)
     for i in range(n):
-        for x in range(m):
-            v = np.int64(lock[i, x]) << np.int64(k)
-            for a in range(k):
-                v += np.int64(u[i, x, a]) << np.int64(a)
-            ucode[i, x] = v
-            for y in range(m):
-                e = np.int64(0)
-                for a in range(l):
-                    e += np.int64(b[i, x, y, a]) << np.int64(a)
-                ecode[i, x, y] = e
+        ucode[i], ecode[i] = _codes_row(u[i], b[i], lock[i])
     return ucode, ecode
 
 
 @njit(cache=True)
 def _codes_row(u, b, lock):
-    """:func:`_codes` of one state: (M,) object codes, (M, M) edge codes."""
-    ucode, ecode = _codes(u.reshape((1,) + u.shape), b.reshape((1,) + b.shape), lock.reshape((1, -1)))
-    return ucode[0], ecode[0]
+    """:func:`_codes` of one state (any memory layout): (M,) object codes, (M, M) edge codes."""
+    m, k = u.shape
+    l = b.shape[2]
+    ucode = np.empty(m, dtype=np.int64)
+    ecode = np.empty((m, m), dtype=np.int64)
+    for x in range(m):
+        v = np.int64(lock[x]) << np.int64(k)
+        for a in range(k):
+            v += np.int64(u[x, a]) << np.int64(a)
+        ucode[x] = v
+        for y in range(m):
+            e = np.int64(0)
+            for a in range(l):
+                e += np.int64(b[x, y, a]) << np.int64(a)
+            ecode[x, y] = e
+    return ucode, ecode
 
 
 @njit(cache=True)

@@ -49,6 +49,28 @@ def test_canonical_forms_equal_the_reference_on_random_and_symmetric_states():
     assert searched == len(states)
 
 
+def test_state_memo_batches_equal_the_reference_on_any_layout():
+    """compiled.canonical_batch with one memo across batches (packed keys up to 7 objects whose
+    bits fit a word, byte encodings above), fed again to hit the memo, and on column views that
+    are not contiguous (a loss keeps only its active symbols): the reference's forms and orders."""
+    rng = np.random.default_rng(12)
+    memo = compiled.new_state_memo()
+    for _ in range(120):
+        n, m = int(rng.integers(1, 40)), int(rng.integers(1, 10))
+        k, l = int(rng.integers(1, 4)), int(rng.integers(1, 4))
+        u = (rng.random((n, m, k)) < rng.uniform(0.05, 0.5)).astype(np.uint8)
+        b = (rng.random((n, m, m, l)) < rng.uniform(0.02, 0.3)).astype(np.uint8)
+        b[:, np.arange(m), np.arange(m)] = 0
+        lock = np.zeros((n, m), dtype=np.int64)
+        lock[:, 0] = rng.integers(0, 3, size=n)
+        if rng.random() < 0.5:
+            u, b = u[:, :, ::2], b[..., 1:] if l > 1 else b
+        ref = canonical_forms(np.ascontiguousarray(u), np.ascontiguousarray(b), lock, {}, kernels="numpy")
+        for _ in range(2):
+            forms, perms = compiled.canonical_batch(u, b, lock, memo)
+            assert np.array_equal(forms, ref[0]) and np.array_equal(perms, ref[1])
+
+
 def test_truth_kernel_equals_symbol_holds_at_and_away_from_the_boundary():
     """The compiled truth repeats Symbol.holds's float steps: equal on random points and on
     points placed within a few ulps of the activation boundary, in 1 to 10 dimensions."""
