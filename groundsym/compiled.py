@@ -542,7 +542,6 @@ def _pinned_tables(unary, binary, lock):
     pcount = np.zeros((c_n, k), dtype=np.int64)
     pdeg = np.zeros((c_n, m, l, 2), dtype=np.int64)
     psorted = np.zeros((c_n, l, 2, m), dtype=np.int64)
-    free = np.empty(m, dtype=np.int64)
     for c in range(c_n):
         ok = k <= 64
         n_pin = 0
@@ -573,9 +572,13 @@ def _pinned_tables(unary, binary, lock):
                 n_free = 0
                 for p in range(m):
                     if not pin[c, p]:
-                        free[n_free] = pdeg[c, p, a, d]
+                        v = pdeg[c, p, a, d]        # insertion sort: a handful of values, no allocation
+                        t = n_free
+                        while t > 0 and psorted[c, a, d, t - 1] > v:
+                            psorted[c, a, d, t] = psorted[c, a, d, t - 1]
+                            t -= 1
+                        psorted[c, a, d, t] = v
                         n_free += 1
-                psorted[c, a, d, :n_free] = np.sort(free[:n_free])
     return pinned, pin, pu, pcount, pdeg, psorted
 
 
