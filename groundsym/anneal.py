@@ -6,9 +6,10 @@ space), re-seeds it (a centre drawn from the data, with random or with its old w
 another candidate (the paper's operator that speeds convergence). Moves are accepted by the
 Metropolis rule under a geometric temperature schedule, given per transition so it scales with
 the data; candidate k of the population runs at ``ladder**k`` times that temperature, and
-neighbouring candidates trade states by replica exchange (``ladder=1``: one temperature, no trades).
-Late re-seeds can be basin hops that settle the new symbol before they are judged (``hop_steps``). Restarts are independent (own seed from the run's seed) and run in parallel worker
-processes, in rounds of ``chunk`` evaluations; the best over all restarts wins. Everything a
+neighbouring candidates trade states by replica exchange (``ladder=1``: one temperature, no
+trades). Late re-seeds can be basin hops that settle the new symbol before they are judged
+(``hop_steps``). Restarts are independent (own seed from the run's seed) and run in parallel
+worker processes, in rounds of ``chunk`` evaluations; the best over all restarts wins. Everything a
 restart needs to continue is a JSON-able state, so a run can be checkpointed after every round
 and resumed to the same result, and the result never depends on the number of workers.
 

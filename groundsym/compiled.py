@@ -8,7 +8,8 @@ The kernels here compute the *same* integers (64-bit hashes that wrap the same w
 object orders, distances, first minimising permutations), so the loss is bit for bit the same
 with or without them (the nearest classes come from a branch and bound over the orders the
 reference enumerates, cut only where no order can beat the first minimiser the enumeration
-returns); ``tests/test_compiled.py`` checks that over thousands of annealing evaluations. The numpy code stays the reference (``Loss(..., kernels="numpy")``).
+returns); ``tests/test_compiled.py`` checks that over thousands of annealing evaluations. The
+numpy code stays the reference (``Loss(..., kernels="numpy")``).
 
 numba compiles on first use and caches the machine code on disk (``cache=True``: beside this
 module, or in ``NUMBA_CACHE_DIR``), so a process pays the compilation once and later processes
@@ -690,8 +691,9 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     the distance is at most ``cutoff``. A full order at ``lo`` (a lower bound) ends the walk, as
     the enumeration stops there.
 
-    Returns ``(d, sigma)``, sigma packed as :func:`_pack` does; ``d`` is -1 when every order
-    exceeds ``cutoff`` (nothing is known then beyond "more than cutoff").
+    Returns ``(d, sigma)``, sigma packed :data:`_SIGMA_BITS` bits per query object (its position
+    in the candidate); ``d`` is -1 when every order exceeds ``cutoff`` (nothing is known then
+    beyond "more than cutoff").
     """
     m = len(lock_q)
     full = (np.int64(1) << np.int64(m)) - np.int64(1)
@@ -1062,9 +1064,10 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
     ``u`` (N, M, K), ``b`` (N, M, M, L), ``lock`` (N, M) int64, ``label`` (N,) int64 (< 256).
     ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
     (canonical form and primitive, :func:`_packed_keys`) for the pair ``memo`` of
-    :func:`nearest_classes`. Returns the fields of ``loss.Neighbourhood`` (cls, perms, lone, best, hit query, class, sigma) and the
-    sizes of the state memo, the interned keys and the pair memo (``len`` of a typed container called from Python
-    compiles on first use, seconds, and costs a dispatch every time).
+    :func:`nearest_classes`. Returns the fields of ``loss.Neighbourhood`` (cls, perms, lone, best,
+    hit query, class, sigma) and the sizes of the state memo, the interned keys and the pair memo
+    (``len`` of a typed container called from Python compiles on first use, seconds, and costs a
+    dispatch every time).
     """
     n, m = lock.shape
     forms, perms = canonical_batch(u, b, lock, state_memo)

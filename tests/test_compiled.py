@@ -152,7 +152,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
             d = int((u[0][list(seq)] != u[1]).sum() + (b[0][np.ix_(seq, seq)] != b[1]).sum())
             if best is None or d < best:
                 best, first = d, seq
-        cutoff = int(rng.integers(0, best + 3)) if trial % 2 else 1 << 30
+        cutoff = [1 << 30, best, int(rng.integers(0, best + 3))][trial % 3]   # the boundary included
         um, out, inn = compiled._object_masks(u, b)
         uword = ucode & ((1 << k) - 1)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
@@ -165,9 +165,10 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
             continue
         sigma = [(v >> (3 * o)) & 7 for o in range(m)]
         assert d == best and sigma == [first.index(o) for o in range(m)], (trial, d, best)
-        # with the exact distance as the lower bound, the first order reaching it is returned
+        # any valid lower bound may end the walk early, never at another order than the first minimiser
+        lo = best if trial % 2 else int(rng.integers(0, best + 1))
         d2, v2 = compiled._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
-                                         out[1], inn[1], lock[0], target, groups, 1 << 30, best, *scratch)
+                                         out[1], inn[1], lock[0], target, groups, 1 << 30, lo, *scratch)
         assert (d2, v2) == (d, v)
     assert cut_hits >= 300, cut_hits
 
@@ -183,9 +184,20 @@ def test_packed_keys_sort_as_their_bytes():
                                 rng.random((n, bits)) < rng.uniform(0.1, 0.9)], axis=1).astype(np.uint8)
         forms[rng.integers(0, n, size=n // 2)] = forms[rng.integers(0, n, size=n // 2)]   # repeated rows
         label = rng.integers(0, 4, size=n).astype(np.int64) * 60
-        first, cls = compiled.group_keys(compiled._packed_keys(forms, label, m))
+        keys = compiled._packed_keys(forms, label, m)
+        first, cls = compiled.group_keys(keys)
         ref_first, ref_cls = group_rows(np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1))
         assert np.array_equal(first, ref_first) and np.array_equal(cls, ref_cls)
+        # a form one false truth value longer (another symbol count), label 0: the same bit stream,
+        # padded with zeros, yet never the same key (the pair memo is keyed by interned keys across
+        # abstractions of any shape)
+        zero = np.zeros(n, dtype=np.int64)
+        short = compiled._packed_keys(forms, zero, m)
+        longer = compiled._packed_keys(np.concatenate([forms, np.zeros((n, 1), np.uint8)], axis=1), zero, m)
+        same_width = short.shape == longer.shape
+        assert not same_width or not (short == longer).all(axis=1).any()
+        if same_width:
+            assert (short[:, :-1] == longer[:, :-1]).all()      # only the shape word tells them apart
 
 
 def test_grouping_kernel_equals_group_rows():
