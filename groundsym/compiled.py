@@ -755,6 +755,48 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     return best, best_v
 
 
+@njit(cache=True, inline="always")
+def _heap_before(lo, c, i, j):
+    return lo[i] < lo[j] or (lo[i] == lo[j] and c[i] < c[j])
+
+
+@njit(cache=True)
+def _heap_push(lo, c, n, v, x):
+    """Push (v, x) on the binary min-heap ``lo``/``c`` of ``n`` entries, ordered by (lo, c)."""
+    i = n
+    lo[i] = v
+    c[i] = x
+    while i > 0:
+        p = (i - 1) >> 1
+        if not _heap_before(lo, c, i, p):
+            break
+        lo[i], lo[p] = lo[p], lo[i]
+        c[i], c[p] = c[p], c[i]
+        i = p
+    return n + 1
+
+
+@njit(cache=True)
+def _heap_pop(lo, c, n):
+    """Remove the top of the heap (read it at index 0 before); returns the new size."""
+    n -= 1
+    lo[0] = lo[n]
+    c[0] = c[n]
+    i = 0
+    while True:
+        a = 2 * i + 1
+        if a >= n:
+            break
+        if a + 1 < n and _heap_before(lo, c, a + 1, a):
+            a += 1
+        if not _heap_before(lo, c, a, i):
+            break
+        lo[i], lo[a] = lo[a], lo[i]
+        c[i], c[a] = c[a], c[i]
+        i = a
+    return n
+
+
 @njit(cache=True)
 def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
     """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
@@ -762,8 +804,10 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
     canonical order; ``profile`` (C, P) as ``loss._profiles``; ``lone`` (Q,) class indices;
     ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
-    Candidates are visited in order of the profile bound and skipped once it exceeds the best
-    distance. A pair's distance is found by branch and bound over the enumeration's orders
+    Candidates are visited in order of their lower bound (the profile bound, raised by
+    :func:`_pinned_bound` where the query's arguments are pinned), ties by class, and the visits
+    stop at the first bound above the best distance; the pinned part is computed only for the
+    candidates that come up before that. A pair's distance is found by branch and bound over the enumeration's orders
     (:func:`_pair_distance`) cut at the query's best distance so far: a candidate that cannot
     tie it needs no exact distance.
 
@@ -814,6 +858,8 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             grp[c] = c
     cand = np.empty(c_n, dtype=np.int64)
     cb = np.empty(c_n)
+    heap_lo = np.empty(c_n)
+    heap_c = np.empty(c_n, dtype=np.int64)
     dist = np.full(c_n, INF)
     for qi in range(q_n):
         q = lone[qi]
@@ -829,23 +875,48 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     s += d
                 else:
                     h += d
-            lo = s + 0.5 * h
-            if pinned[q]:
-                lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
-            cand[n_c] = c
-            cb[n_c] = lo
+            lo = s + 0.5 * h                 # insertion by (bound, class): classes come in order
+            t = n_c
+            while t > 0 and cb[t - 1] > lo:
+                cb[t] = cb[t - 1]
+                cand[t] = cand[t - 1]
+                t -= 1
+            cb[t] = lo
+            cand[t] = c
             n_c += 1
         if n_c == 0:
             continue
-        order = np.argsort(cb[:n_c], kind="mergesort")
         groups = np.empty(0, dtype=np.int64)
         target = np.empty(0, dtype=np.int64)
         have_groups = False
         b = INF
         base = ids[q] << np.int64(32)
-        for oi in range(n_c):
-            c = cand[order[oi]]
-            lo = cb[order[oi]]
+        # Visit candidates in order of (bound, class), the bound with the pinned arguments' part
+        # where the query has them. That part is dearer and mostly not needed: candidates leave
+        # ``cand`` in order of the profile part alone and get the pinned part on the way into a
+        # heap, and the heap's top is visited once no candidate left in ``cand`` can come before
+        # it (a full bound is never below the profile part). The order is the sorted order of
+        # the full bounds; the visits stop at the first bound above the best distance.
+        nxt_c = 0
+        n_heap = 0
+        while True:
+            if n_heap > 0 and (nxt_c == n_c or heap_lo[0] < cb[nxt_c]
+                               or (heap_lo[0] == cb[nxt_c] and heap_c[0] < cand[nxt_c])):
+                c = heap_c[0]
+                lo = heap_lo[0]
+                n_heap = _heap_pop(heap_lo, heap_c, n_heap)
+            elif nxt_c < n_c:
+                c = cand[nxt_c]
+                lo = cb[nxt_c]
+                nxt_c += 1
+                if lo > b:
+                    break
+                if pinned[q]:
+                    lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
+                n_heap = _heap_push(heap_lo, heap_c, n_heap, lo, c)
+                continue
+            else:
+                break
             if lo > b:
                 break
             key = base | ids[c]
@@ -873,8 +944,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             if dv < b:
                 b = dv
         best[qi] = b
-        for t in range(n_c):
-            c = cand[t]
+        for c in range(c_n):                 # hits in class order (``cand`` is in bound order)
+            if dist[c] == INF:
+                continue
             if dist[c] == b:
                 if n_hits == len(hq):
                     hq = np.concatenate((hq, np.empty_like(hq)))

@@ -130,6 +130,28 @@ def _kept_orders_brute(lock, groups):
             yield seq
 
 
+def test_bound_heap_pops_in_order_of_bound_then_class():
+    """The heap that orders nearest-class candidates: any interleaving of pushes and pops returns
+    the entries in sorted (bound, class) order of what is in it, ties in the bound included."""
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        n = int(rng.integers(1, 40))
+        lo, cl = np.empty(n), np.empty(n, dtype=np.int64)
+        bounds = rng.integers(0, 6, n) / 2.0            # few values: many ties
+        classes = rng.permutation(n)
+        size, held, pushed = 0, [], 0
+        while pushed < n or size:
+            if pushed < n and (size == 0 or rng.random() < 0.6):
+                size = compiled._heap_push(lo, cl, size, bounds[pushed], classes[pushed])
+                held.append((bounds[pushed], int(classes[pushed])))
+                pushed += 1
+            else:
+                top = (lo[0], int(cl[0]))
+                assert top == min(held)
+                held.remove(top)
+                size = compiled._heap_pop(lo, cl, size)
+
+
 def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
     """Branch and bound against brute force over 3,000 random pairs (2-7 objects, 1-2 unary and
     1-2 binary symbols, locked arguments, states with twins): the distance and the first order
