@@ -1049,30 +1049,30 @@ def group_keys(keys):
 
 @njit(cache=True)
 def _profiles_of(u, b, rows):
-    """loss._profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol."""
+    """loss._profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol
+    (symbol by symbol, where the reference interleaves the symbols: the profile bound is an L1
+    distance, which the order of the columns does not change)."""
     n = len(rows)
     m, k = u.shape[1], u.shape[2]
     l = b.shape[3]
     out = np.zeros((n, k + 2 * m * l), dtype=np.int64)
-    deg = np.empty(m, dtype=np.int64)
     for r in range(n):
         s = rows[r]
         for a in range(k):
             for x in range(m):
                 out[r, a] += u[s, x, a]
         for a in range(l):
-            for x in range(m):
-                d = 0
-                for y in range(m):
-                    d += b[s, x, y, a]
-                deg[x] = d
-            out[r, k + a * m:k + (a + 1) * m] = np.sort(deg)
-            for y in range(m):
-                d = 0
+            for side in range(2):           # out-degrees, then in-degrees, each sorted
+                at = k + side * m * l + a * m
                 for x in range(m):
-                    d += b[s, x, y, a]
-                deg[y] = d
-            out[r, k + m * l + a * m:k + m * l + (a + 1) * m] = np.sort(deg)
+                    d = 0
+                    for y in range(m):
+                        d += b[s, x, y, a] if side == 0 else b[s, y, x, a]
+                    t = x                   # insertion sort in place: no allocation per row
+                    while t > 0 and out[r, at + t - 1] > d:
+                        out[r, at + t] = out[r, at + t - 1]
+                        t -= 1
+                    out[r, at + t] = d
     return out
 
 

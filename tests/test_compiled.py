@@ -130,6 +130,23 @@ def _kept_orders_brute(lock, groups):
             yield seq
 
 
+def test_profiles_equal_the_reference():
+    """Unary counts and sorted out-/in-degrees per binary symbol, as ``loss._profiles`` gives them
+    (in another order of the degree columns, which the profile bound's L1 distance ignores)."""
+    from groundsym.loss import _profiles
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        n, m, k, l = (int(rng.integers(1, 6)), int(rng.integers(1, 8)), int(rng.integers(0, 3)),
+                      int(rng.integers(0, 3)))
+        u = (rng.random((n, m, k)) < 0.4).astype(np.uint8)
+        b = (rng.random((n, m, m, l)) < rng.uniform(0.05, 0.6)).astype(np.uint8)
+        rows = rng.integers(0, n, int(rng.integers(1, 4)))
+        ref = _profiles(u, b, rows)        # degrees object-major there, symbol-major here: the
+        deg = ref[:, k:].reshape(len(rows), 2, m, l).transpose(0, 1, 3, 2)   # same L1 distances
+        assert np.array_equal(compiled._profiles_of(u, b, rows), np.concatenate(
+            [ref[:, :k], deg.reshape(len(rows), -1)], axis=1))
+
+
 def test_bound_heap_pops_in_order_of_bound_then_class():
     """The heap that orders nearest-class candidates: any interleaving of pushes and pops returns
     the entries in sorted (bound, class) order of what is in it, ties in the bound included."""
