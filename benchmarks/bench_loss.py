@@ -14,8 +14,9 @@ of this process (the machine is shared):
 Each is timed with the compiled kernels (the default) and with the numpy reference they mirror;
 the compilation (or loading numba's on-disk cache) is timed apart, once per process. With
 ``--before REV`` the same workloads also run on the code of commit REV (checked out in a
-temporary git worktree, run in a subprocess), alternating with the current code, and the ratio
-is printed: a ratio in one run, on the same data, is what a loaded machine can measure.
+temporary git worktree) and on this code, each round in two fresh processes, alternating, and
+the ratio of the medians is printed: a ratio in one run, on the same data, is what a loaded
+machine can measure.
 
     .venv/bin/python benchmarks/bench_loss.py --traces tower16.json --evals 3000 --before 1648be7
     # tower16.json: groundsym collect --sim tower --traces 16 --seed 0 -o tower16.json
@@ -127,11 +128,10 @@ def main() -> int:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(wt), args.before],
                        check=True, capture_output=True)
         try:
-            after, before = [now], []
-            for k in range(args.rounds):
+            after, before = [], []
+            for k in range(args.rounds):     # both in fresh processes, alternating: the same conditions
                 before.append(run_elsewhere(wt, args.traces, args.evals, one))
-                if k:
-                    after.append(workloads(args.traces, args.evals, None, one))
+                after.append(run_elsewhere(ROOT, args.traces, args.evals, one))
             med = {w: (float(np.median([r[w] for r in after])), float(np.median([r[w] for r in before])))
                    for w in ("annealing", "random")}
             report(f"this code (median of {len(after)})", {**now, **{w: a for w, (a, _) in med.items()}})
