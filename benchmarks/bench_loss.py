@@ -60,7 +60,7 @@ def workloads(traces: Path | None, evals: int, kernels: str | None, one_temperat
     import groundsym
     here = Path(groundsym.__file__).resolve().parent
     out["compile_s"] = 0.0
-    if (here / "compiled.py").exists() and kernels != "numpy":   # (code from before has none)
+    if ((here / "compiled.py").exists() or (here / "compiled").is_dir()) and kernels != "numpy":  # (older code: none)
         from groundsym import compiled
         out["compile_s"] = compiled.warm_up()
     if traces is not None:

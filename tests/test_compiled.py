@@ -14,6 +14,7 @@ import pytest
 
 from conftest import DATA
 from groundsym import compiled
+from groundsym.compiled import canonical, classes, nearest
 from groundsym.anneal import AnnealConfig, advance, start_restart
 from groundsym.canonical import canonical_form, canonical_forms
 from groundsym.loss import Loss, LossConfig, prepare
@@ -104,10 +105,10 @@ def test_pinned_bound_never_exceeds_the_exact_distance():
         b[:, np.arange(m), np.arange(m)] = 0
         lock = np.zeros((2, m), dtype=np.int64)
         lock[:, :n_pin] = [2, 1][2 - n_pin:]
-        tables = compiled._pinned_tables(u, b, lock)
+        tables = nearest._pinned_tables(u, b, lock)
         pinned, pin, pu, pcount, pdeg, psorted = tables
         assert pinned.all()
-        bound = compiled._pinned_bound(pin, 0, 1, pu, pcount, pdeg, b, psorted, m)
+        bound = nearest._pinned_bound(pin, 0, 1, pu, pcount, pdeg, b, psorted, m)
         exact = min(
             int((u[0][list(p)] != u[1]).sum() + (b[0][np.ix_(p, p)] != b[1]).sum())
             for free in itertools.permutations(range(n_pin, m)) for p in [list(range(n_pin)) + list(free)])
@@ -143,7 +144,7 @@ def test_profiles_equal_the_reference():
         rows = rng.integers(0, n, int(rng.integers(1, 4)))
         ref = _profiles(u, b, rows)        # degrees object-major there, symbol-major here: the
         deg = ref[:, k:].reshape(len(rows), 2, m, l).transpose(0, 1, 3, 2)   # same L1 distances
-        assert np.array_equal(compiled._profiles_of(u, b, rows), np.concatenate(
+        assert np.array_equal(classes._profiles_of(u, b, rows), np.concatenate(
             [ref[:, :k], deg.reshape(len(rows), -1)], axis=1))
 
 
@@ -159,14 +160,14 @@ def test_bound_heap_pops_in_order_of_bound_then_class():
         size, held, pushed = 0, [], 0
         while pushed < n or size:
             if pushed < n and (size == 0 or rng.random() < 0.6):
-                size = compiled._heap_push(lo, cl, size, bounds[pushed], classes[pushed])
+                size = nearest._heap_push(lo, cl, size, bounds[pushed], classes[pushed])
                 held.append((bounds[pushed], int(classes[pushed])))
                 pushed += 1
             else:
                 top = (lo[0], int(cl[0]))
                 assert top == min(held)
                 held.remove(top)
-                size = compiled._heap_pop(lo, cl, size)
+                size = nearest._heap_pop(lo, cl, size)
 
 
 def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
@@ -184,7 +185,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         n_pin = int(rng.integers(0, min(m, 2) + 1))
         lock = np.zeros((2, m), dtype=np.int64)
         lock[:, :n_pin] = [2, 1][2 - n_pin:]
-        ucode, ecode = compiled._codes(u, b, lock)
+        ucode, ecode = canonical._codes(u, b, lock)
         groups = compiled.twin_groups_row(ucode[0], ecode[0])
         best, first = None, None
         for seq in _kept_orders_brute(list(lock[0]), list(groups)):
@@ -192,11 +193,11 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
             if best is None or d < best:
                 best, first = d, seq
         cutoff = [1 << 30, best, int(rng.integers(0, best + 3))][trial % 3]   # the boundary included
-        um, out, inn = compiled._object_masks(u, b)
+        um, out, inn = nearest._object_masks(u, b)
         uword = ucode & ((1 << k) - 1)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         target = -np.sort(-lock[0])
-        d, v = compiled._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
+        d, v = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
                                        inn[1], lock[0], target, groups, cutoff, -1, *scratch)
         if best > cutoff:
             assert d == -1
@@ -206,7 +207,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         assert d == best and sigma == [first.index(o) for o in range(m)], (trial, d, best)
         # any valid lower bound may end the walk early, never at another order than the first minimiser
         lo = best if trial % 2 else int(rng.integers(0, best + 1))
-        d2, v2 = compiled._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
+        d2, v2 = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
                                          out[1], inn[1], lock[0], target, groups, 1 << 30, lo, *scratch)
         assert (d2, v2) == (d, v)
     assert cut_hits >= 300, cut_hits
@@ -223,7 +224,7 @@ def test_packed_keys_sort_as_their_bytes():
                                 rng.random((n, bits)) < rng.uniform(0.1, 0.9)], axis=1).astype(np.uint8)
         forms[rng.integers(0, n, size=n // 2)] = forms[rng.integers(0, n, size=n // 2)]   # repeated rows
         label = rng.integers(0, 4, size=n).astype(np.int64) * 60
-        keys = compiled._packed_keys(forms, label, m)
+        keys = classes._packed_keys(forms, label, m)
         first, cls = compiled.group_keys(keys)
         ref_first, ref_cls = group_rows(np.concatenate([forms, label.astype(np.uint8)[:, None]], axis=1))
         assert np.array_equal(first, ref_first) and np.array_equal(cls, ref_cls)
@@ -231,8 +232,8 @@ def test_packed_keys_sort_as_their_bytes():
         # padded with zeros, yet never the same key (the pair memo is keyed by interned keys across
         # abstractions of any shape)
         zero = np.zeros(n, dtype=np.int64)
-        short = compiled._packed_keys(forms, zero, m)
-        longer = compiled._packed_keys(np.concatenate([forms, np.zeros((n, 1), np.uint8)], axis=1), zero, m)
+        short = classes._packed_keys(forms, zero, m)
+        longer = classes._packed_keys(np.concatenate([forms, np.zeros((n, 1), np.uint8)], axis=1), zero, m)
         same_width = short.shape == longer.shape
         assert not same_width or not (short == longer).all(axis=1).any()
         if same_width:

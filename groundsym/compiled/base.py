@@ -1,0 +1,54 @@
+"""What every compiled kernel shares: numba itself (or a stand-in where it cannot install), the
+hash constants of :mod:`groundsym.canonical`, and three small helpers (a 64-bit mixer, row
+equality, a popcount)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:  # numba is a dependency; the numpy reference keeps the loss usable without it
+    import numba
+    from numba import njit
+    AVAILABLE = True
+except ImportError:  # pragma: no cover - exercised only where numba cannot install
+    numba = None
+    AVAILABLE = False
+
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        return (lambda f: f) if not (len(args) == 1 and callable(args[0])) else args[0]
+
+from ..canonical import _M1, _M2, _P
+
+M1, M2 = np.uint64(_M1), np.uint64(_M2)
+P0, P1, P2, P3, P4, P5 = (np.uint64(p) for p in _P[:6])
+INF = np.inf
+LN2 = math.log(2.0)   # as symbols.LN2
+
+
+
+@njit(cache=True, inline="always")
+def _mix(x):
+    """canonical._mix on one uint64 (multiplication wraps modulo 2^64, as in numpy)."""
+    x = x ^ (x >> np.uint64(33))
+    x = x * M1
+    x = x ^ (x >> np.uint64(33))
+    x = x * M2
+    return x ^ (x >> np.uint64(33))
+
+
+@njit(cache=True)
+def _equal(a, b):
+    for i in range(len(a)):
+        if a[i] != b[i]:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _popcount(x):
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)

@@ -1,0 +1,465 @@
+"""The nearest classes of every lone class, compiled: ``Loss._nearest_enumerated`` and the
+bit-parallel enumeration of :mod:`groundsym.relational.enumeration` (their numpy reference), as a
+branch and bound over the same orders in the same order (:func:`_pair_distance`), cut where no
+order can beat the first minimiser the enumeration returns; candidates visited in order of a
+lower bound (:func:`nearest_classes`), pairs memoised across calls."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .base import INF, _popcount, njit, numba
+from .canonical import twin_groups_row
+
+
+_SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
+
+
+_DIST_SHIFT = 32
+
+
+@njit(cache=True)
+def _pinned_tables(unary, binary, lock):
+    """What :func:`_pinned_bound` needs per class, in canonical order.
+
+    The action's arguments sit at the front of the canonical order (descending locks, distinct
+    values), and every kept order sends them to the same front positions: they are *pinned*. A
+    class qualifies when that holds (``pinned``); ``pin`` (C, M) marks its pinned positions,
+    ``pu`` (C, M) their unary bits as a word, ``pcount`` (C, K) unary counts over the free
+    positions, ``pdeg`` (C, M, L, 2) out- and in-degrees without the edges between two pinned
+    objects and ``psorted`` (C, L, 2, M) the free positions' degrees sorted (the first M - pins entries used).
+    """
+    c_n, m, k = unary.shape
+    l = binary.shape[3]
+    pinned = np.zeros(c_n, dtype=np.bool_)
+    pin = np.zeros((c_n, m), dtype=np.bool_)
+    pu = np.zeros((c_n, m), dtype=np.uint64)
+    pcount = np.zeros((c_n, k), dtype=np.int64)
+    pdeg = np.zeros((c_n, m, l, 2), dtype=np.int64)
+    psorted = np.zeros((c_n, l, 2, m), dtype=np.int64)
+    for c in range(c_n):
+        ok = k <= 64
+        n_pin = 0
+        for p in range(m):
+            if lock[c, p] != 0:
+                if p != n_pin or (p > 0 and lock[c, p - 1] <= lock[c, p]):
+                    ok = False              # arguments not at the front in strictly descending order
+                pin[c, p] = True
+                n_pin += 1
+        if not ok or n_pin == 0:
+            continue
+        pinned[c] = True
+        for p in range(m):
+            for a in range(k):
+                if pin[c, p]:
+                    if unary[c, p, a]:
+                        pu[c, p] |= np.uint64(1) << np.uint64(a)
+                else:
+                    pcount[c, a] += unary[c, p, a]
+            for y in range(m):
+                if pin[c, p] and pin[c, y]:
+                    continue
+                for a in range(l):
+                    pdeg[c, p, a, 0] += binary[c, p, y, a]
+                    pdeg[c, y, a, 1] += binary[c, p, y, a]
+        for a in range(l):
+            for d in range(2):
+                n_free = 0
+                for p in range(m):
+                    if not pin[c, p]:
+                        v = pdeg[c, p, a, d]        # insertion sort: a handful of values, no allocation
+                        t = n_free
+                        while t > 0 and psorted[c, a, d, t - 1] > v:
+                            psorted[c, a, d, t] = psorted[c, a, d, t - 1]
+                            t -= 1
+                        psorted[c, a, d, t] = v
+                        n_free += 1
+    return pinned, pin, pu, pcount, pdeg, psorted
+
+
+@njit(cache=True)
+def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
+    """A lower bound on the distance of compatible classes q and c with pinned arguments.
+
+    Unary: the pinned objects' own mismatches plus per-symbol count differences of the free
+    ones. Binary: the edges between pinned objects exactly, and every other mismatched edge
+    changes one out-degree and one in-degree, so half the summed degree differences (pinned
+    objects against their fixed partners, free ones sorted: the best 1-D matching) is admissible.
+    """
+    k = pcount.shape[1]
+    l = pdeg.shape[2]
+    s = 0.0
+    for a in range(k):
+        s += abs(pcount[q, a] - pcount[c, a])
+    n_free = 0
+    h = 0.0
+    for p in range(m):
+        if not pin[q, p]:
+            n_free += 1
+            continue
+        s += float(_popcount(pu[q, p] ^ pu[c, p]))
+        for y in range(m):
+            if pin[q, y]:
+                for a in range(l):
+                    s += binary[q, p, y, a] != binary[c, p, y, a]
+        for a in range(l):
+            h += abs(pdeg[q, p, a, 0] - pdeg[c, p, a, 0]) + abs(pdeg[q, p, a, 1] - pdeg[c, p, a, 1])
+    for a in range(l):
+        for d in range(2):
+            for t in range(n_free):
+                h += abs(psorted[q, a, d, t] - psorted[c, a, d, t])
+    return s + 0.5 * h
+
+
+_BOUND = np.int64(1) << np.int64(31)     # pair memo flag: the entry is a lower bound, not the distance
+
+
+@njit(cache=True)
+def _object_masks(unary, binary):
+    """Per class, object sets as m-bit masks: ``um`` (C, K) the objects holding each unary symbol,
+    ``out``/``inn`` (C, M, L) each object's out- and in-neighbours under each binary symbol."""
+    c_n, m, k = unary.shape
+    l = binary.shape[3]
+    um = np.zeros((c_n, k), dtype=np.int64)
+    out = np.zeros((c_n, m, l), dtype=np.int64)
+    inn = np.zeros((c_n, m, l), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            for a in range(k):
+                if unary[c, x, a]:
+                    um[c, a] |= np.int64(1) << np.int64(x)
+            for y in range(m):
+                for a in range(l):
+                    if binary[c, x, y, a]:
+                        out[c, x, a] |= np.int64(1) << np.int64(y)
+                        inn[c, y, a] |= np.int64(1) << np.int64(x)
+    return um, out, inn
+
+
+@njit(cache=True, inline="always")
+def _pc(x):
+    return np.int64(_popcount(np.uint64(x)))
+
+
+@njit(cache=True, inline="always")
+def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
+    """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
+    has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
+    per symbol, the unary count difference among the rest, each placed object's out- and
+    in-degree difference into the rest, and the edge count difference within the rest. The edge
+    sets are disjoint and none is counted yet, so the sum is admissible."""
+    k = umq.shape[0]
+    l = outq.shape[1]
+    m = outq.shape[0]
+    r = np.int64(0)
+    for a in range(k):
+        r += abs(_pc(umq[a] & rq) - _pc(umc[a] & rc))
+    for a in range(l):
+        for p in range(depth):
+            x = seq[p]
+            r += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc))
+            r += abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
+        eq_n = np.int64(0)
+        ec_n = np.int64(0)
+        for y in range(m):
+            if (rq >> np.int64(y)) & np.int64(1):
+                eq_n += _pc(outq[y, a] & rq)
+            if (rc >> np.int64(y)) & np.int64(1):
+                ec_n += _pc(outc[y, a] & rc)
+        r += abs(eq_n - ec_n)
+    return r
+
+
+@njit(cache=True)
+def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cutoff, lo,
+                   seq, used, nxt, cost):
+    """The distance of a query to a candidate class and its first minimising order, by branch and bound.
+
+    Walks the kept orders of the enumeration (the query's object placed at each position, in
+    lexicographic order) depth first, adding each placement's mismatches as it goes: the unary
+    bits (``uq``/``uc``: per object a word of its unary bits) and the edges (``eq``/``ec``: per
+    pair a word of its binary bits) to the objects already placed, both ways; :func:`_rest_bound`
+    bounds what the rest must add. A branch whose bound exceeds ``cutoff`` (before a full order
+    is found) or reaches the best full order so far is cut: neither can hold a first minimiser
+    the enumeration would return, so the result is the enumeration's (distance, order) whenever
+    the distance is at most ``cutoff``. A full order at ``lo`` (a lower bound) ends the walk, as
+    the enumeration stops there.
+
+    Returns ``(d, sigma)``, sigma packed :data:`_SIGMA_BITS` bits per query object (its position
+    in the candidate); ``d`` is -1 when every order exceeds ``cutoff`` (nothing is known then
+    beyond "more than cutoff").
+    """
+    m = len(lock_q)
+    full = (np.int64(1) << np.int64(m)) - np.int64(1)
+    best = np.int64(-1)
+    best_v = np.int64(0)
+    used[:] = False
+    depth = 0
+    nxt[0] = 0
+    cost[0] = 0
+    rq = full
+    while depth >= 0:
+        if depth == m:
+            d = cost[m]
+            if best < 0 or d < best:
+                best = d
+                best_v = np.int64(0)
+                for p in range(m):
+                    best_v |= np.int64(p) << np.int64(_SIGMA_BITS * seq[p])
+                if d <= lo:
+                    return best, best_v
+            depth -= 1
+            used[seq[depth]] = False
+            rq |= np.int64(1) << np.int64(seq[depth])
+            continue
+        placed = False
+        o = nxt[depth]
+        rc = full & ~((np.int64(1) << np.int64(depth + 1)) - np.int64(1))
+        while o < m:
+            ok = not used[o] and lock_q[o] == target[depth]
+            if ok:
+                for e in range(o):            # earlier twins of o must already be placed
+                    if groups[e] == groups[o] and not used[e]:
+                        ok = False
+                        break
+            if ok:
+                c = cost[depth] + _pc(uq[o] ^ uc[depth]) + _pc(eq[o, o] ^ ec[depth, depth])
+                for p in range(depth):
+                    x = seq[p]
+                    c += _pc(eq[o, x] ^ ec[depth, p]) + _pc(eq[x, o] ^ ec[p, depth])
+                limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
+                seq[depth] = o
+                rq_o = rq & ~(np.int64(1) << np.int64(o))
+                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc) < limit:
+                    used[o] = True
+                    rq = rq_o
+                    nxt[depth] = o + 1
+                    cost[depth + 1] = c
+                    nxt[depth + 1] = 0
+                    depth += 1
+                    placed = True
+                    break
+            o += 1
+        if not placed:
+            nxt[depth] = 0
+            depth -= 1
+            if depth >= 0:
+                used[seq[depth]] = False
+                rq |= np.int64(1) << np.int64(seq[depth])
+    return best, best_v
+
+
+@njit(cache=True, inline="always")
+def _heap_before(lo, c, i, j):
+    return lo[i] < lo[j] or (lo[i] == lo[j] and c[i] < c[j])
+
+
+@njit(cache=True)
+def _heap_push(lo, c, n, v, x):
+    """Push (v, x) on the binary min-heap ``lo``/``c`` of ``n`` entries, ordered by (lo, c)."""
+    i = n
+    lo[i] = v
+    c[i] = x
+    while i > 0:
+        p = (i - 1) >> 1
+        if not _heap_before(lo, c, i, p):
+            break
+        lo[i], lo[p] = lo[p], lo[i]
+        c[i], c[p] = c[p], c[i]
+        i = p
+    return n + 1
+
+
+@njit(cache=True)
+def _heap_pop(lo, c, n):
+    """Remove the top of the heap (read it at index 0 before); returns the new size."""
+    n -= 1
+    lo[0] = lo[n]
+    c[0] = c[n]
+    i = 0
+    while True:
+        a = 2 * i + 1
+        if a >= n:
+            break
+        if a + 1 < n and _heap_before(lo, c, a + 1, a):
+            a += 1
+        if not _heap_before(lo, c, a, i):
+            break
+        lo[i], lo[a] = lo[a], lo[i]
+        c[i], c[a] = c[a], c[i]
+        i = a
+    return n
+
+
+@njit(cache=True)
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
+    """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
+
+    ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
+    canonical order; ``profile`` (C, P) as ``loss._profiles``; ``lone`` (Q,) class indices;
+    ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
+    Candidates are visited in order of their lower bound (the profile bound, raised by
+    :func:`_pinned_bound` where the query's arguments are pinned), ties by class, and the visits
+    stop at the first bound above the best distance; the pinned part is computed only for the
+    candidates that come up before that. A pair's distance is found by branch and bound over the enumeration's orders
+    (:func:`_pair_distance`) cut at the query's best distance so far: a candidate that cannot
+    tie it needs no exact distance.
+
+    ``ids`` (C,) names each class by its canonical encoding (the caller interns the encodings)
+    and ``memo`` (a numba typed dict) holds, per pair computed before, either the exact distance
+    and first minimising order or a lower bound (flag :data:`_BOUND`): both are functions of the
+    two encodings alone, so what ran before changes the work, never the result.
+
+    Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
+    sorted by query, then class: sigma maps the query's canonical positions onto the class's.
+    """
+    c_n, m = lock.shape
+    q_n = len(lone)
+    best = np.full(q_n, INF)
+    n_hits = 0
+    hq = np.empty(4 * q_n + 4, dtype=np.int64)
+    hv = np.empty(4 * q_n + 4, dtype=np.int64)
+    hc = np.empty(4 * q_n + 4, dtype=np.int64)
+    packed = np.empty(c_n, dtype=np.int64)
+    sigma_mask = _BOUND - np.int64(1)
+    pinned, pin, pu, pcount, pdeg, psorted = _pinned_tables(unary, binary, lock)
+    ubits = np.int64((1 << n_unary) - 1)
+    uword = np.empty((c_n, m), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            uword[c, x] = ucode[c, x] & ubits
+    um, out, inn = _object_masks(unary, binary)
+    seq = np.empty(m, dtype=np.int64)
+    used = np.zeros(m, dtype=np.bool_)
+    nxt = np.zeros(m + 1, dtype=np.int64)
+    cost = np.zeros(m + 1, dtype=np.int64)
+    # compatible classes (same primitive, arguments at the same positions) form groups; a query
+    # looks at its own group only, in increasing class order
+    grp = np.empty(c_n, dtype=np.int64)
+    for c in range(c_n):
+        grp[c] = -1
+        for c2 in range(c):
+            if grp[c2] == c2 and labels[c2] == labels[c]:
+                same = True
+                for i in range(m):
+                    if lock[c2, i] != lock[c, i]:
+                        same = False
+                        break
+                if same:
+                    grp[c] = c2
+                    break
+        if grp[c] < 0:
+            grp[c] = c
+    cand = np.empty(c_n, dtype=np.int64)
+    cb = np.empty(c_n)
+    heap_lo = np.empty(c_n)
+    heap_c = np.empty(c_n, dtype=np.int64)
+    dist = np.full(c_n, INF)
+    for qi in range(q_n):
+        q = lone[qi]
+        n_c = 0
+        for c in range(c_n):
+            if c == q or grp[c] != grp[q]:
+                continue
+            s = 0.0
+            h = 0.0
+            for f in range(profile.shape[1]):
+                d = abs(profile[q, f] - profile[c, f])
+                if f < n_unary:
+                    s += d
+                else:
+                    h += d
+            lo = s + 0.5 * h                 # insertion by (bound, class): classes come in order
+            t = n_c
+            while t > 0 and cb[t - 1] > lo:
+                cb[t] = cb[t - 1]
+                cand[t] = cand[t - 1]
+                t -= 1
+            cb[t] = lo
+            cand[t] = c
+            n_c += 1
+        if n_c == 0:
+            continue
+        groups = np.empty(0, dtype=np.int64)
+        target = np.empty(0, dtype=np.int64)
+        have_groups = False
+        b = INF
+        base = ids[q] << np.int64(32)
+        # Visit candidates in order of (bound, class), the bound with the pinned arguments' part
+        # where the query has them. That part is dearer and mostly not needed: candidates leave
+        # ``cand`` in order of the profile part alone and get the pinned part on the way into a
+        # heap, and the heap's top is visited once no candidate left in ``cand`` can come before
+        # it (a full bound is never below the profile part). The order is the sorted order of
+        # the full bounds; the visits stop at the first bound above the best distance.
+        nxt_c = 0
+        n_heap = 0
+        while True:
+            if n_heap > 0 and (nxt_c == n_c or heap_lo[0] < cb[nxt_c]
+                               or (heap_lo[0] == cb[nxt_c] and heap_c[0] < cand[nxt_c])):
+                c = heap_c[0]
+                lo = heap_lo[0]
+                n_heap = _heap_pop(heap_lo, heap_c, n_heap)
+            elif nxt_c < n_c:
+                c = cand[nxt_c]
+                lo = cb[nxt_c]
+                nxt_c += 1
+                if lo > b:
+                    break
+                if pinned[q]:
+                    lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
+                n_heap = _heap_push(heap_lo, heap_c, n_heap, lo, c)
+                continue
+            else:
+                break
+            if lo > b:
+                break
+            key = base | ids[c]
+            v = memo.get(key, np.int64(-1))
+            if v >= 0 and (v & _BOUND) != 0 and float(v >> np.int64(_DIST_SHIFT)) > b:
+                dist[c] = float(v >> np.int64(_DIST_SHIFT))     # known to exceed the best: no tie
+                continue
+            if v < 0 or (v & _BOUND) != 0:
+                if not have_groups:
+                    groups = twin_groups_row(ucode[q], ecode[q])
+                    target = -np.sort(-lock[q])
+                    have_groups = True
+                cut = np.int64(1 << 30) if b == INF else np.int64(b)
+                d, sv = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
+                                       inn[c], lock[q], target, groups,
+                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost)
+                if d < 0:
+                    v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
+                else:
+                    v = (d << np.int64(_DIST_SHIFT)) | sv
+                memo[key] = v
+            packed[c] = v
+            dv = float(v >> np.int64(_DIST_SHIFT))
+            dist[c] = dv
+            if dv < b:
+                b = dv
+        best[qi] = b
+        for c in range(c_n):                 # hits in class order (``cand`` is in bound order)
+            if dist[c] == INF:
+                continue
+            if dist[c] == b:
+                if n_hits == len(hq):
+                    hq = np.concatenate((hq, np.empty_like(hq)))
+                    hv = np.concatenate((hv, np.empty_like(hv)))
+                    hc = np.concatenate((hc, np.empty_like(hc)))
+                hq[n_hits] = qi
+                hc[n_hits] = c
+                hv[n_hits] = packed[c] & sigma_mask
+                n_hits += 1
+            dist[c] = INF
+    hs = np.empty((n_hits, m), dtype=np.int64)
+    for t in range(n_hits):
+        for p in range(m):
+            hs[t, p] = (hv[t] >> np.int64(_SIGMA_BITS * p)) & np.int64(7)
+    return best, hq[:n_hits], hc[:n_hits], hs
+
+
+def new_memo():
+    """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
+    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
