@@ -17,7 +17,7 @@ from types import ModuleType
 
 from . import __version__
 from . import commands as _commands_pkg
-from .errors import UserError
+from .errors import UserError, interrupted
 
 
 class _Parser(argparse.ArgumentParser):
@@ -83,13 +83,15 @@ def _main(argv: list[str] | None) -> int:
     except UserError as exc:
         print(f"groundsym {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_status
-    except KeyboardInterrupt as exc:   # a command may say what was kept (e.g. a checkpoint to resume)
-        detail = f"; {exc}" if str(exc) else ""
+    except BrokenPipeError:
+        return 1
+    except (KeyboardInterrupt, Exception) as exc:   # a command may say what was kept (a checkpoint);
+        if not interrupted(exc):                     # a Ctrl-C inside a compiled kernel comes wrapped
+            raise
+        detail = f"; {exc}" if isinstance(exc, KeyboardInterrupt) and str(exc) else ""
         fresh = "\r\x1b[K" if sys.stderr.isatty() else ""   # over a progress bar's unfinished line
         print(f"{fresh}groundsym {args.command}: interrupted{detail}", file=sys.stderr)
         return 130
-    except BrokenPipeError:
-        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

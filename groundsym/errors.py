@@ -17,3 +17,18 @@ class UserError(Exception):
 def where(path: object, field: str | None = None) -> str:
     """Format a location prefix such as ``traces.json: traces[0].steps[3].features``."""
     return f"{path}: {field}" if field else f"{path}"
+
+
+def interrupted(exc: BaseException) -> bool:
+    """Is ``exc`` a Ctrl-C? A KeyboardInterrupt, or an error raised because one arrived inside
+    compiled code: SIGINT's handler raises KeyboardInterrupt while a numba kernel runs, and the
+    kernel's dispatcher then reports a SystemError ("returned a result with an exception set") or,
+    while it converts the arguments, a TypeError ("can't unbox"), each with the KeyboardInterrupt
+    as its cause or context."""
+    seen = 0
+    while exc is not None and seen < 20:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc = exc.__cause__ or exc.__context__
+        seen += 1
+    return False

@@ -133,3 +133,37 @@ def test_interrupted_at_20_random_moments_each_resume_equals_the_uninterrupted_r
         _, err = p.communicate(timeout=900)
         assert p.returncode == 0, err
         assert symbols_doc(out) == want, f"resumed after SIGINT at {delay:.2f} s differs"
+
+
+def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
+    """A SIGINT that arrives while a numba dispatcher converts arguments or results reaches
+    ``learn`` as a SystemError ("returned a result with an exception set", seen in 2 of 3
+    interrupted runs of tests/test_learn_reproducible.py before the fix) or a TypeError ("can't
+    unbox"), chained to the KeyboardInterrupt: those count as interrupts, errors without one do
+    not."""
+    from groundsym.errors import interrupted
+
+    def wrapped(kind, how):
+        try:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as ki:
+                if how == "cause":
+                    raise kind("returned a result with an exception set") from ki
+                raise kind("can't unbox")           # the KeyboardInterrupt as its context
+        except Exception as exc:
+            return exc
+
+    assert interrupted(KeyboardInterrupt())
+    for kind in (SystemError, TypeError):
+        for how in ("cause", "context"):
+            assert interrupted(wrapped(kind, how))
+    for plain in (ValueError("x"), SystemError("no cause"), TypeError("no cause")):
+        assert not interrupted(plain)
+    try:
+        try:
+            raise ValueError("inner")
+        except ValueError as inner:
+            raise SystemError("outer") from inner
+    except SystemError as chained_without_interrupt:
+        assert not interrupted(chained_without_interrupt)

@@ -11,7 +11,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from ..anneal import AnnealConfig, anneal, default_workers
-from ..errors import UserError
+from ..errors import UserError, interrupted
 from ..executors import add_executor_args, check_executor_options, make_executor
 from ..fileio import file_sha256, output_target
 from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
@@ -158,7 +158,9 @@ def run(args: argparse.Namespace) -> int:
     schema = check_options(args)
     try:
         return _learn_model(schema, args)
-    except KeyboardInterrupt:    # the CLI prints this as its one 'interrupted' line, exit 130
+    except (KeyboardInterrupt, Exception) as exc:   # the CLI prints this as its one 'interrupted' line, exit 130
+        if not interrupted(exc):
+            raise
         kept = (f"the search state is in {args.checkpoint}; the same command resumes it" if args.checkpoint
                 else "give --checkpoint FILE to keep the search state and resume")
         raise KeyboardInterrupt(f"{args.output} unchanged; {kept}") from None
