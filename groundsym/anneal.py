@@ -39,7 +39,7 @@ from .workers import start as start_workers
 CHECKPOINT_SCHEMA = "groundsym.anneal-checkpoint/1"
 
 
-LOOKS = ("independent", "subset", "mixed")   # how a new symbol chooses the dimensions it ignores
+LOOKS = ("independent", "subset")   # how a new symbol chooses the dimensions it ignores
 
 
 @dataclass(frozen=True)
@@ -60,8 +60,7 @@ class AnnealConfig:
     share_range: tuple[float, float] = (0.005, 0.3)  # a new symbol holds for this share of the data
     p_moved: float = 0.5         # share of new centres drawn from objects/pairs a primitive moved
     p_ignore: float = 0.25       # a new symbol ignores each feature dimension with this probability
-    looks: str = "independent"   # or "subset": how many dimensions a new symbol looks at is uniform;
-                                 # "mixed": each new symbol one or the other, with even odds
+    looks: str = "independent"   # or "subset": how many dimensions a new symbol looks at is uniform
     chunk: int = 500             # evaluations per restart between checkpoints
     hop_steps: int = 0           # >0: late re-seeds are basin hops, the new symbol settled this many steps
     hop_after: float = 0.5       # share of a restart's budget after which re-seeds hop (with hop_steps > 0)
@@ -156,10 +155,8 @@ IGNORE_WIDTH = 100.0  # an ignored dimension's width, x the data's spread (the l
 def _ignored_dimensions(rng: np.random.Generator, n: int, cfg: AnnealConfig) -> np.ndarray:
     """Which of ``n`` dimensions a new symbol ignores: each with probability ``p_ignore``
     (``looks="independent"``, never all), or all but a random subset whose size is uniform in 1..n
-    (``looks="subset"``: symbols of one dimension, such as size or height alone, as often as any),
-    or, with ``looks="mixed"``, one of the two with even odds."""
-    subset = cfg.looks == "subset" or (cfg.looks == "mixed" and rng.random() < 0.5)
-    if subset:
+    (``looks="subset"``: symbols of one dimension, such as size or height alone, as often as any)."""
+    if cfg.looks == "subset":
         ignore = np.ones(n, dtype=bool)
         ignore[rng.choice(n, int(rng.integers(1, n + 1)), replace=False)] = False
         return ignore

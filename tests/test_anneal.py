@@ -190,17 +190,6 @@ def test_subset_looks_draws_the_number_of_dimensions_uniformly():
         AnnealConfig(looks="sometimes")
 
 
-def test_mixed_looks_draw_either_way_with_even_odds():
-    """Half of the new symbols as ``independent`` (1 of 4 dimensions: about 5%), half as
-    ``subset`` (25%): one-dimension symbols come about 15% of the time."""
-    d = prepare(kinematic_tower(4, seed=2))
-    rng = np.random.default_rng(3)
-    looked = [int((~np.isclose(_random_symbol(rng, 1, "u", d, AnnealConfig(looks=how)).widths / d.unary_scale,
-                                IGNORE_WIDTH)).sum()) for how in ("independent", "subset", "mixed") for _ in range(800)]
-    ones = [sum(n == 1 for n in looked[k * 800:(k + 1) * 800]) for k in range(3)]
-    assert ones[0] < 70 and 150 <= ones[1] <= 250 and 80 <= ones[2] <= 170      # 40, 200, 120 expected
-
-
 def test_hops_come_late_and_only_when_they_fit_the_budget():
     cfg = AnnealConfig(hop_steps=10, hop_after=0.5)
     assert [hops(cfg, done, 100) for done in (0, 49, 50, 89, 90)] == [False, False, True, True, False]
