@@ -25,10 +25,11 @@ def interrupted(exc: BaseException) -> bool:
     kernel's dispatcher then reports a SystemError ("returned a result with an exception set") or,
     while it converts the arguments, a TypeError ("can't unbox"), each with the KeyboardInterrupt
     as its cause or context."""
-    seen = 0
-    while exc is not None and seen < 20:
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
             return True
-        exc = exc.__cause__ or exc.__context__
-        seen += 1
+        seen.add(id(exc))
+        # ``raise ... from None`` says the error it was raised in is not its cause
+        exc = exc.__cause__ or (None if exc.__suppress_context__ else exc.__context__)
     return False

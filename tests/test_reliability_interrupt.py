@@ -167,3 +167,10 @@ def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
             raise SystemError("outer") from inner
     except SystemError as chained_without_interrupt:
         assert not interrupted(chained_without_interrupt)
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise ValueError("unrelated") from None       # explicitly not caused by the Ctrl-C
+    except ValueError as unrelated:
+        assert not interrupted(unrelated)

@@ -52,3 +52,14 @@ def _popcount(x):
     x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
     x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
     return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@njit(cache=True, inline="always")
+def _insert_sorted(row, n, v):
+    """Insert ``v`` into ``row[:n]``, sorted ascending, shifting larger values right (an
+    insertion sort step: for the handful of degrees per class, without allocating)."""
+    t = n
+    while t > 0 and row[t - 1] > v:
+        row[t] = row[t - 1]
+        t -= 1
+    row[t] = v

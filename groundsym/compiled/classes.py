@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import _equal, _mix, njit, numba
+from .base import _equal, _insert_sorted, _mix, njit, numba
 from .canonical import _codes, canonical_batch
 from .nearest import nearest_classes
 
@@ -84,11 +84,7 @@ def _profiles_of(u, b, rows):
                     d = 0
                     for y in range(m):
                         d += b[s, x, y, a] if side == 0 else b[s, y, x, a]
-                    t = x                   # insertion sort in place: no allocation per row
-                    while t > 0 and out[r, at + t - 1] > d:
-                        out[r, at + t] = out[r, at + t - 1]
-                        t -= 1
-                    out[r, at + t] = d
+                    _insert_sorted(out[r, at:at + m], x, d)     # no allocation per row
     return out
 
 

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .base import INF, _popcount, njit, numba
+from .base import INF, _insert_sorted, _popcount, njit, numba
 from .canonical import twin_groups_row
 
 
@@ -69,12 +69,7 @@ def _pinned_tables(unary, binary, lock):
                 n_free = 0
                 for p in range(m):
                     if not pin[c, p]:
-                        v = pdeg[c, p, a, d]        # insertion sort: a handful of values, no allocation
-                        t = n_free
-                        while t > 0 and psorted[c, a, d, t - 1] > v:
-                            psorted[c, a, d, t] = psorted[c, a, d, t - 1]
-                            t -= 1
-                        psorted[c, a, d, t] = v
+                        _insert_sorted(psorted[c, a, d], n_free, pdeg[c, p, a, d])
                         n_free += 1
     return pinned, pin, pu, pcount, pdeg, psorted
 
@@ -303,7 +298,8 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     Candidates are visited in order of their lower bound (the profile bound, raised by
     :func:`_pinned_bound` where the query's arguments are pinned), ties by class, and the visits
     stop at the first bound above the best distance; the pinned part is computed only for the
-    candidates that come up before that. A pair's distance is found by branch and bound over the enumeration's orders
+    candidates that come up before that. A pair's distance is found by branch and bound over the
+    enumeration's orders
     (:func:`_pair_distance`) cut at the query's best distance so far: a candidate that cannot
     tie it needs no exact distance.
 
@@ -409,8 +405,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     break
                 if pinned[q]:
                     lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
-                n_heap = _heap_push(heap_lo, heap_c, n_heap, lo, c)
-                continue
+                    n_heap = _heap_push(heap_lo, heap_c, n_heap, lo, c)
+                    continue
+                # no pinned part: the profile bound is the whole bound, and the heap stays empty
             else:
                 break
             if lo > b:
