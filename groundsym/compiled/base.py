@@ -1,6 +1,6 @@
 """What every compiled kernel shares: numba itself (or a stand-in where it cannot install), the
-hash constants of :mod:`groundsym.canonical`, and three small helpers (a 64-bit mixer, row
-equality, a popcount)."""
+hash constants of :mod:`groundsym.canonical`, and four small helpers (a 64-bit mixer, row
+equality, a popcount, an insertion step)."""
 
 from __future__ import annotations
 
