@@ -58,6 +58,35 @@ def test_proposals_use_the_change_tolerance_the_data_was_prepared_with():
     assert len(moved_strict) < len(moved_loose)
 
 
+def test_pair_centres_are_pairs_a_primitive_involved_after_it():
+    """Half of the new binary symbols centre on a pair of objects a primitive involved (an
+    argument or an object it moved), in the scene after it: the pool is computed here again from
+    the traces' own objects, and on real tower traces it is rich in the simulator's ``on``, the
+    reason for it (docs/symbols.md)."""
+    from groundsym.anneal import _points
+    from groundsym.traces import read_traces
+    ds = read_traces(Path(__file__).resolve().parent / "data" / "tower_16.json")
+    data = prepare(ds)
+    spread = np.concatenate([np.asarray(s.features) for tr in ds.traces for s in tr.scenes]).std(0)
+    want, on_pool = [], []
+    for tr in ds.traces:
+        for before, act, after in tr.transitions():
+            moved = (np.abs(np.asarray(after.features) - np.asarray(before.features)) / spread).max(1) > 0.05
+            involved = {i for i, o in enumerate(tr.objects) if moved[i] or o in act.args}
+            for i in sorted(involved):
+                for j in sorted(involved - {i}):
+                    want.append(np.asarray(after.features)[i] - np.asarray(after.features)[j])
+                    on_pool.append(any(a.predicate == "on" and set(a.args) == {tr.objects[i], tr.objects[j]}
+                                       for a in after.truth))
+    got = _points(data)[3]
+    assert len(got) == len(want) > 0
+    assert np.allclose(np.sort(got, axis=0), np.sort(np.array(want), axis=0))
+    on_all = np.mean([any(a.predicate == "on" and set(a.args) == {tr.objects[i], tr.objects[j]} for a in s.truth)
+                      for tr in ds.traces for s in tr.scenes
+                      for i in range(len(tr.objects)) for j in range(len(tr.objects)) if i != j])
+    assert np.mean(on_pool) >= 0.5 and np.mean(on_pool) > 10 * on_all
+
+
 def test_best_is_the_best_of_all_restarts_and_really_scores_that(data):
     cfg = AnnealConfig(evals=200, restarts=2, chunk=50)
     res = anneal(data, LossConfig(), cfg, seed=1)
