@@ -1,5 +1,5 @@
 """Simulated annealing: determinism, worker independence, checkpoint resume, pruning, and (slow) that
-it finds the intended symbols of the kinematic fixture world."""
+it finds what the loss asks for in the kinematic fixture world (`on`, and what tells `inhand`)."""
 
 from pathlib import Path
 
@@ -8,9 +8,9 @@ import pytest
 
 from groundsym.anneal import (IGNORE_WIDTH, AnnealConfig, _exchange, _perturb, _random_symbol, anneal, hops, prune, settle,
                              share_radius, temperature)
-from groundsym.grounding import match_symbols
+from groundsym.grounding import match_symbols, truth_arrays
 from groundsym.loss import Loss, LossConfig, prepare
-from groundsym.symbols import Symbol, SymbolSet
+from groundsym.symbols import Symbol, SymbolSet, dataset_arrays
 from tests.test_loss import SIZES, intended_symbols, kinematic_tower
 
 
@@ -151,18 +151,32 @@ def test_prune_drops_never_and_always_true_symbols_and_renames(data):
 
 
 @pytest.mark.slow
-def test_finds_inhand_and_on_in_the_fixture_world():
+def test_finds_on_and_what_tells_inhand_in_the_fixture_world():
+    """The search reaches the loss's level of the known answer, learns `on`, and its abstraction
+    tells which object is in the hand.
+
+    Why not `inhand` itself: on this fixture the loss prefers a height band ("low": the table and
+    the second level) to `inhand`, by 4 nats over the best `inhand` set the search finds (-332.2
+    against -327.9 at seed 0); with `on` the band tells the held object just as well (neither low
+    nor on anything). Before commit 766fa51 the search missed the band at seed 0 and this test
+    asked for `inhand` or its complement."""
     ds = kinematic_tower(16, seed=11)
     data = prepare(ds)
     res = anneal(data, LossConfig(), AnnealConfig(evals=32000, restarts=4), seed=0, workers=2)
     assert res.terms.total <= Loss(data)(intended_symbols()).total   # at least as good as the known answer
-    matches = {m.arity: m for m in match_symbols(SymbolSet(tuple(res.symbols), ds.feature_names),
-                                                 kinematic_tower(20, seed=99))}
-    # `inhand`, or its complement "not in the hand" (the same information; an RBF cannot be
-    # negated, and the loss scores both alike): the search finds either
-    u = matches[1]
-    assert (u.best_match == "inhand" and u.f1 >= 0.9) or (u.negation_of == "inhand" and u.negation_f1 >= 0.9)
+    test = kinematic_tower(20, seed=99)
+    matches = {m.arity: m for m in match_symbols(SymbolSet(tuple(res.symbols), ds.feature_names), test)}
     assert matches[2].best_match == "on" and matches[2].f1 >= 0.8
+    # the abstract state tells `inhand`: the best function of (u1(o), o is b1's first argument for
+    # some object, its second argument) is right for 99% of the held-out objects (the majority
+    # answer, "not in the hand", for 94%)
+    feats, pairs = dataset_arrays(test)
+    held = truth_arrays(test)[0]["inhand"]
+    u = [s for s in res.symbols if s.arity == 1][0].holds(feats)
+    b = [s for s in res.symbols if s.arity == 2][0].holds(pairs) & ~np.eye(feats.shape[1], dtype=bool)
+    key = 4 * u + 2 * b.any(axis=2) + b.any(axis=1)
+    right = sum(max(held[key == k].sum(), (~held[key == k]).sum()) for k in range(8))
+    assert right / key.size >= 0.99 > 1 - held.mean()
 
 
 def test_new_symbols_ignore_dimensions_at_the_configured_rate():
