@@ -22,11 +22,19 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Sequence
 
 
-def _serve(conn: Connection, init: Callable[..., None], init_args: tuple) -> None:
-    """A worker: ignore SIGINT, initialise, then run ``(function, job)`` pairs until the pipe
-    closes or brings None; each answer is ``(True, result)`` or ``(False, exception)``."""
+def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
+           main_ends: Sequence[Connection] = ()) -> None:
+    """A worker: ignore SIGINT, close the main process's pipe ends it inherited, initialise, then
+    run ``(function, job)`` pairs until the pipe closes or brings None; each answer is
+    ``(True, result)`` or ``(False, exception)``.
+
+    The main process's ends are closed first because a forked worker holds copies of them: with
+    its own copy of the other end open, the pipe never closes when the main process dies (``kill
+    -9``, out of memory), and the worker would wait on it for ever."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # blocked by start() while forking
+    for end in main_ends:
+        end.close()
     init(*init_args)
     while True:
         try:
@@ -42,8 +50,13 @@ def _serve(conn: Connection, init: Callable[..., None], init_args: tuple) -> Non
             answer = (False, exc)
         try:
             conn.send(answer)
+        except OSError:                   # the main process is gone
+            return
         except Exception as exc:          # e.g. an exception that does not pickle
-            conn.send((False, RuntimeError(f"a worker's answer could not be sent: {exc!r}")))
+            try:
+                conn.send((False, RuntimeError(f"a worker's answer could not be sent: {exc!r}")))
+            except OSError:
+                return
 
 
 class Workers:
@@ -55,7 +68,7 @@ class Workers:
         try:
             for _ in range(n):
                 mine, theirs = ctx.Pipe()
-                p = ctx.Process(target=_serve, args=(theirs, init, init_args), daemon=True)
+                p = ctx.Process(target=_serve, args=(theirs, init, init_args, (mine, *self.conns)), daemon=True)
                 p.start()
                 theirs.close()
                 self.procs.append(p)

@@ -174,3 +174,54 @@ def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
             raise ValueError("unrelated") from None       # explicitly not caused by the Ctrl-C
     except ValueError as unrelated:
         assert not interrupted(unrelated)
+
+
+def _workers_of(pid: int) -> list[int]:
+    """The child processes of ``pid`` (from /proc)."""
+    kids = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if int((d / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                    kids.append(int(d.name))
+            except (OSError, ValueError, IndexError):
+                pass
+    return kids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
+def test_workers_end_when_the_main_process_is_killed(tmp_path):
+    """``kill -9`` of learn's main process (or the out-of-memory killer): its workers see their
+    pipes close and end, busy or idle. Before the fix each forked worker held a copy of the main
+    process's end of its own pipe, so the pipe never closed and the workers waited for ever."""
+    ck = tmp_path / "ck.json"
+    p = groundsym([*LEARN[:3], "20000", *LEARN[4:], "-o", str(tmp_path / "M"), "--checkpoint", str(ck)])
+    try:
+        deadline = time.monotonic() + 60
+        while not ck.exists() and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        workers = _workers_of(p.pid)
+        assert p.poll() is None and len(workers) == 2, "learn should be searching with its 2 workers"
+        os.kill(p.pid, signal.SIGKILL)
+        p.wait(timeout=10)
+        deadline = time.monotonic() + 20
+        while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = [w for w in workers if _alive(w)]
+    finally:
+        for w in _workers_of(p.pid) + locals().get("workers", []):
+            try:
+                os.kill(w, signal.SIGKILL)
+            except OSError:
+                pass
+        p.kill()
+        p.communicate()
+    assert not left, f"workers {left} outlived their killed main process"
