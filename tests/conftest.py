@@ -1,4 +1,5 @@
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -7,3 +8,11 @@ DATA = ROOT / "tests" / "data"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def as_foreground_job() -> None:
+    """``preexec_fn`` for a command a test interrupts as a terminal's Ctrl-C would: SIGINT's
+    default action, even when the tests run where it is ignored (a background job of a
+    non-interactive shell ignores SIGINT, a child inherits that, and Python then keeps ignoring
+    it, so the command would run to its end)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DATA
+from conftest import DATA, as_foreground_job
 from groundsym.cli import main
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.symbols import Symbol
@@ -70,10 +70,7 @@ def test_workers_do_not_change_the_symbols(uninterrupted, tmp_path):
 
 def _interrupt(cmd: list[str], checkpoint: Path, sig: int, after_done: int) -> None:
     """Start ``cmd``, wait until its checkpoint records ``after_done`` evaluations, send ``sig``."""
-    # SIGINT's default action (KeyboardInterrupt) even when this test runs where it is ignored (a
-    # background job), since a child inherits an ignored SIGINT and Python then keeps ignoring it
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=as_foreground_job)
     deadline = time.time() + 600
     try:
         while time.time() < deadline and proc.poll() is None:

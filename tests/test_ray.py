@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import DATA
+from conftest import DATA, as_foreground_job
 from groundsym.cli import main
 from groundsym.experiment import EvalConfig, evaluate, unit_path
 
@@ -304,7 +304,7 @@ def test_ctrl_c_on_ray_stops_everything_and_the_rerun_resumes(reference, tmp_pat
     evaluation with the results of an uninterrupted run."""
     out = tmp_path / "E"
     proc = subprocess.Popen(small(out, "--executor", "ray", "--workers", "2"), stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=as_foreground_job)
     try:
         def running_unit():
             return [p for p in _children(proc.pid) if _title(p).startswith("ray::run_unit")]

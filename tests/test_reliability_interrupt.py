@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DATA, ROOT
+from conftest import DATA, ROOT, as_foreground_job
 
 LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts", "2", "--workers", "2",
          "--unary", "1", "--binary", "1", "--seed", "5", "--quiet"]
@@ -24,7 +24,8 @@ LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts
 def groundsym(args: list[str], **kw) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.Popen([sys.executable, "-m", "groundsym.cli", *args], cwd=ROOT, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=as_foreground_job, **kw)
 
 
 def interrupt_after(args: list[str], delay: float, after: Path | None = None, group: bool = True,
