@@ -154,9 +154,9 @@ def _points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
         mu = data.features[scenes][np.concatenate([moved, moved])]
         involved = moved | (data.lock != 0)                                        # (T, M)
         pair_inv = involved[:, :, None] & involved[:, None, :] & off[None]
-        mp = data.pairs[data.post][pair_inv]
+        pi = data.pairs[data.post][pair_inv]
         _POINTS.clear()
-        hit = _POINTS[id(data)] = (data, unary, pairs, mu if len(mu) else unary, mp if len(mp) else pairs)
+        hit = _POINTS[id(data)] = (data, unary, pairs, mu if len(mu) else unary, pi if len(pi) else pairs)
     return hit[1], hit[2], hit[3], hit[4]
 
 

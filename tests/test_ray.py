@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import DATA, as_foreground_job
+from conftest import DATA, as_foreground_job, descendants
 from groundsym.cli import main
 from groundsym.experiment import EvalConfig, evaluate, unit_path
 
@@ -200,23 +200,6 @@ def test_results_are_the_same_for_processes_and_ray(reference, tmp_path):
     same_as(tmp_path / "ray", reference)
 
 
-def _children(pid: int) -> set[int]:
-    """Every descendant process of ``pid`` (from /proc)."""
-    parent = {}
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                parent[int(d.name)] = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
-            except (OSError, ValueError, IndexError):
-                pass
-    found, grew = {pid}, True
-    while grew:
-        new = {c for c, p in parent.items() if p in found} - found
-        found |= new
-        grew = bool(new)
-    return found - {pid}
-
-
 def _title(pid: int) -> str:
     try:
         return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace").strip()
@@ -259,7 +242,7 @@ def test_a_ray_worker_killed_in_a_task_is_retried(reference, tmp_path):
     proc = subprocess.Popen(small(out, "--executor", "ray", "--workers", "2"))
     try:
         def running_unit():
-            return [p for p in _children(proc.pid) if _title(p).startswith("ray::run_unit")]
+            return [p for p in descendants(proc.pid) if _title(p).startswith("ray::run_unit")]
         victim = _wait_for(running_unit, proc, "a unit ran")[0]
         os.kill(victim, signal.SIGKILL)
         assert proc.wait(timeout=900) == 0
@@ -277,7 +260,7 @@ def test_a_killed_driver_resumes_from_its_finished_units(reference, tmp_path):
     try:
         _wait_for(lambda: list((out / "runs").glob("*.json")) if (out / "runs").exists() else [], proc,
                   "a unit was written")
-        ray_processes = _children(proc.pid)
+        ray_processes = descendants(proc.pid)
         temp_dir = _ray_temp_dir(ray_processes)
         proc.kill()
         proc.wait()
@@ -307,9 +290,9 @@ def test_ctrl_c_on_ray_stops_everything_and_the_rerun_resumes(reference, tmp_pat
                             start_new_session=True, preexec_fn=as_foreground_job)
     try:
         def running_unit():
-            return [p for p in _children(proc.pid) if _title(p).startswith("ray::run_unit")]
+            return [p for p in descendants(proc.pid) if _title(p).startswith("ray::run_unit")]
         _wait_for(running_unit, proc, "a unit ran")
-        ray_processes = _children(proc.pid)
+        ray_processes = descendants(proc.pid)
         temp_dir = _ray_temp_dir(ray_processes)
         assert temp_dir.is_dir()
         written = set((out / "runs").glob("*.json")) if (out / "runs").exists() else set()

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DATA, ROOT, as_foreground_job
+from conftest import DATA, ROOT, as_foreground_job, descendants
 
 LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts", "2", "--workers", "2",
          "--unary", "1", "--binary", "1", "--seed", "5", "--quiet"]
@@ -177,19 +177,6 @@ def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
         assert not interrupted(unrelated)
 
 
-def _workers_of(pid: int) -> list[int]:
-    """The child processes of ``pid`` (from /proc)."""
-    kids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                if int((d / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
-                    kids.append(int(d.name))
-            except (OSError, ValueError, IndexError):
-                pass
-    return kids
-
-
 def _alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -204,12 +191,13 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     pipes close and end, busy or idle. Before the fix each forked worker held a copy of the main
     process's end of its own pipe, so the pipe never closed and the workers waited for ever."""
     ck = tmp_path / "ck.json"
-    p = groundsym([*LEARN[:3], "20000", *LEARN[4:], "-o", str(tmp_path / "M"), "--checkpoint", str(ck)])
+    p = groundsym([*LEARN, "--evals", "20000", "-o", str(tmp_path / "M"), "--checkpoint", str(ck)])   # the last --evals counts
+    workers: set[int] = set()
     try:
         deadline = time.monotonic() + 60
         while not ck.exists() and p.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        workers = _workers_of(p.pid)
+        workers = descendants(p.pid)
         assert p.poll() is None and len(workers) == 2, "learn should be searching with its 2 workers"
         os.kill(p.pid, signal.SIGKILL)
         p.wait(timeout=10)
@@ -217,8 +205,8 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
         while any(_alive(w) for w in workers) and time.monotonic() < deadline:
             time.sleep(0.1)
         left = [w for w in workers if _alive(w)]
-    finally:
-        for w in _workers_of(p.pid) + locals().get("workers", []):
+    finally:                          # never leave a worker behind, whatever failed
+        for w in workers:
             try:
                 os.kill(w, signal.SIGKILL)
             except OSError:
