@@ -1,4 +1,4 @@
-"""Does rule learning recover known dynamics? (issue 4's experiment, ALGORITHMS.md A.11)
+"""Does rule learning recover known dynamics? (docs/rules.md)
 
 For each known domain, sample training data (random walks from all-on-the-table starts, 25 % of
 steps an inapplicable action), learn NID rules with the default options, and compare on 2000

@@ -58,7 +58,7 @@ KERNELS = ("numba", "numpy")
 
 @dataclass(frozen=True)
 class LossConfig:
-    """Weights and model parameters of the loss (defaults: DESIGN.md section 4, docs/symbols.md)."""
+    """Weights and model parameters of the loss (defaults: docs/symbols.md)."""
 
     effect_weight: float = 1.0
     transition_weight: float = 1.0

@@ -5,7 +5,7 @@ A feature counts the injective groundings of a small conjunction of atoms over v
 ``#(?a ?b ?c): (on ?a ?b) (on ?b ?c)``. Counts generalise over object identities and over the
 number of objects, and they are sums of *products of distinct atom indicators*, so under the
 independent atom marginals PRADA propagates, the expected reward is exact by linearity:
-``E[r] = w0 + sum_k w_k sum_groundings prod_i P(atom_i)`` (ALGORITHMS.md B.7, case 2).
+``E[r] = w0 + sum_k w_k sum_groundings prod_i P(atom_i)`` (Lang & Toussaint 2010, PRADA's reward for a general reward model).
 
 Weights are fitted by ridge regression on standardised features, with the ridge strength chosen
 by cross-validation over traces; the held-out fit (RMSE, R^2, against predicting the mean) is

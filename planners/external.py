@@ -1,7 +1,7 @@
 """EXTERNAL: classical planners on a determinised domain, replanning on surprise (FF-Replan).
 
-The PPDDL domain is determinised once (all-outcomes by default, or most-likely; ALGORITHMS.md
-C.4) and parsed by unified-planning once per planner (one episode). Every plan found is kept by
+The PPDDL domain is determinised once (all-outcomes by default, or most-likely;
+docs/ppddl.md) and parsed by unified-planning once per planner (one episode). Every plan found is kept by
 state: each state the plan passes through (as the determinised domain predicts it) maps to the
 rest of the plan from there. At each step the current state's kept plan is followed; only a
 state no plan passes through calls a classical planner through unified-planning

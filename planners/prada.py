@@ -1,11 +1,11 @@
 """PRADA and A-PRADA (Lang & Toussaint 2010): planning with noisy probabilistic relational rules.
 
 PRADA turns the NID rules into a dynamic Bayesian network over ground atoms and keeps only
-per-atom marginals (factored frontier, ALGORITHMS.md B.3). It samples many action sequences,
-each action drawn with weight "probability that a manipulating rule of it applies" (B.4),
+per-atom marginals (the factored frontier; Lang & Toussaint 2010). It samples many action sequences,
+each action drawn with weight "probability that a manipulating rule of it applies",
 propagates the marginals along each sequence, scores it by the discounted expected reward
-``sum_t gamma^t E_t[R]`` (B.5) and runs the first action of the best sequence; it replans after
-every primitive. A-PRADA (B.6) then deletes actions from the best sequence while that raises its
+``sum_t gamma^t E_t[R]`` and runs the first action of the best sequence; it replans after
+every primitive. A-PRADA then deletes actions from the best sequence while that raises its
 value.
 
 Everything about a sample is a row of a numpy matrix: the grounding (:class:`Grounding`) turns
@@ -234,7 +234,7 @@ def rule_probabilities(g: Grounding, B: np.ndarray, min_prob: float = RULE_MIN_P
 
 
 def action_weights(g: Grounding, U: np.ndarray) -> np.ndarray:
-    """Sampling weight of each ground action: P(a manipulating rule of it applies) (B.4)."""
+    """Sampling weight of each ground action: P(a manipulating rule of it applies)."""
     if not U.shape[1]:
         return np.zeros((U.shape[0], 0))
     return np.add.reduceat(U * g.manipulating, g.starts, axis=1)
@@ -280,7 +280,7 @@ class LinearReward(RewardFn):
 
 @dataclass(frozen=True, eq=False)
 class GoalReward(RewardFn):
-    """``R_goal * prod P(literal)``: a conjunctive goal under independent marginals (B.7).
+    """``R_goal * prod P(literal)``: a conjunctive goal under independent marginals (Lang & Toussaint 2010).
 
     ``share > 0`` adds ``share * R_goal * mean P(literal)``, the expected share of the goal's
     literals that hold: a goal further away than the horizon then still orders the sequences (one
@@ -346,7 +346,7 @@ def array_reward(model: Any, g: Grounding) -> ArrayReward:
 class SampledReward(RewardFn):
     """A model that only scores states (``predict(state, objects)``): Monte Carlo over states drawn
     from the factored belief, with one fixed set of uniforms for every row and step (common random
-    numbers, so sequences are compared on the same draws) (ALGORITHMS.md B.7, case 3)."""
+    numbers, so sequences are compared on the same draws) (docs/algorithms.md, PRADA and A-PRADA)."""
 
     model: Any
     g: Grounding

@@ -86,7 +86,7 @@ def test_literal_parse():
 
 
 def test_coverage_ambiguity_example():
-    """ALGORITHMS.md A.3: puton(X): block(X), inhand(Y) covers {block(a), inhand(b)} only."""
+    """A rule covers an action only with a unique binding: puton(X): block(X), inhand(Y) covers {block(a), inhand(b)} only."""
     r = Rule(parse_atom("(puton ?x)"), (parse_literal("(block ?x)"), parse_literal("(inhand ?y)")),
              (Outcome((parse_literal("(on ?y ?x)"),)),), (0.75,), 0.25)
     a = parse_atom("(puton a)")

@@ -17,6 +17,11 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGES = sorted(DOCS.glob("*.md"))
 TEXTS = PAGES + [ROOT / "README.md"]
+#: Code and data files: their docstrings and comments cite papers or docs/ pages, never notes that
+#: live outside the repository. This file is left out (it spells the patterns it looks for).
+CODE = sorted(p for d in ("groundsym", "sims", "planners", "tests", "examples", "benchmarks", "domains", "tools")
+              for p in (ROOT / d).rglob("*") if p.suffix in (".py", ".ppddl", ".pddl", ".lark", ".md", ".yaml")
+              and p.is_file() and p.name != Path(__file__).name)
 
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 DOCS_PATH = re.compile(r"(?<![\w/.-])docs/[\w./-]*\w")
@@ -61,6 +66,12 @@ def test_no_paths_outside_the_repository_and_no_history(page):
     for no, line in enumerate(page.read_text().splitlines(), 1):
         assert not OUTSIDE.search(line), f"{rel(page)}:{no}: points outside the repository: {line.strip()}"
         assert not HISTORY.search(line), f"{rel(page)}:{no}: a date or project history: {line.strip()}"
+
+
+def test_code_cites_nothing_outside_the_repository():
+    bad = [f"{rel(p)}:{no}: {line.strip()}" for p in CODE
+           for no, line in enumerate(p.read_text(errors="replace").splitlines(), 1) if OUTSIDE.search(line)]
+    assert len(CODE) > 100 and not bad, "\n".join(bad)
 
 
 @pytest.mark.parametrize("page", TEXTS, ids=rel)

@@ -1,4 +1,4 @@
-"""Outcome probabilities (EM, A.6) and outcome induction (A.7) against hand-computed optima."""
+"""Outcome probabilities (EM) and outcome induction (InduceOutcomes) against hand-computed optima."""
 
 from __future__ import annotations
 

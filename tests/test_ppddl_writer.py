@@ -2,7 +2,7 @@
 
 Truth used: printing then parsing gives the same tree; an exported rule set parses back to the
 same rules; and the exported domain, run by the PPDDL simulator, has exactly the NID rule-set
-semantics of ALGORITHMS.md A.3-A.4 (unique covering rule, else the default: no change).
+semantics of NID rules (docs/rules.md: (unique covering rule, else the default: no change).
 """
 
 from __future__ import annotations

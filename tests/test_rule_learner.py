@@ -1,4 +1,4 @@
-"""Rule-set learning (A.8-A.9) recovers known dynamics (A.11, issue 4's experiment)."""
+"""Rule-set learning recovers known dynamics (docs/rules.md, Does learning recover known dynamics?)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""NID rule semantics (ALGORITHMS.md A.3, A.4, A.11): coverage, likelihood, and the rules files."""
+"""NID rule semantics (Pasula et al. 2007; docs/rules.md): coverage, likelihood, and the rules files."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""NID rules <-> PPDDL (ALGORITHMS.md C.2).
+"""NID rules <-> PPDDL (docs/ppddl.md).
 
 Export (:func:`rules_to_domain`): one action ``<primitive>_r<k>`` per non-default rule. Its
 parameters are the action's variables followed by the deictic references, and its precondition
@@ -171,7 +171,7 @@ def _unique(context: Sequence[Literal], action_vars: Sequence[str], deictic: Seq
 
 
 def _covers(rule: Rule, action_vars: Sequence[str], taken: set[str], injective: bool) -> Formula:
-    """A formula over ``action_vars`` that holds iff ``rule`` covers the action (A.3)."""
+    """A formula over ``action_vars`` that holds iff ``rule`` covers the action (a unique covering rule, docs/rules.md)."""
     ren = dict(zip(rule.action.args, action_vars))
     deictic = list(rule.deictic)
     ws = _fresh("w", taken, len(deictic))

@@ -1,4 +1,4 @@
-"""Determinise a PPDDL domain for classical planners (ALGORITHMS.md C.4), and solve it.
+"""Determinise a PPDDL domain for classical planners (docs/ppddl.md, Determinisation), and solve it.
 
 * ``all-outcomes`` (FF-Replan's FFR-a): one action ``<name>_o<i>`` per outcome of the action's
   effect (the product of its ``probabilistic`` blocks); the planner picks outcomes

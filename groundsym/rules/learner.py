@@ -1,16 +1,16 @@
-"""Learning NID rule sets from symbolic transitions (LNDR, ALGORITHMS.md A.5, A.8-A.9).
+"""Learning NID rule sets from symbolic transitions (LearnRuleSet of Pasula, Zettlemoyer & Kaelbling 2007; docs/algorithms.md, Learning a rule set).
 
-Learning runs separately for each action name (A.1): the score adds up across actions, so each
+Learning runs separately for each action name: the score adds up across actions, so each
 search is small. A search starts from the default rule alone and applies the operators
 ExplainExamples, DropRules, DropLits, DropRefs, AddLits, AddRefs and SplitOnLits, keeping the best
 candidate of an operator when it raises
 
     S(R) = sum_e w_e log P(s'|s,a,R) - alpha * sum_r PEN(r)
 
-until no operator helps. Every candidate rule is completed by :func:`induce_outcomes` (A.7) on the
+until no operator helps. Every candidate rule is completed by :func:`induce_outcomes` on the
 examples it covers, and ``integrate`` removes the rules it overlaps. The one exception is
 AddExceptions, which adds a specialisation beside its rule: scoring follows the rule-set semantics
-(A.3) exactly, so an example two rules cover goes to the default rule, and each rule's outcomes
+exactly, so an example two rules cover goes to the default rule, and each rule's outcomes
 are fitted on the examples it covers alone.
 
 Defaults (documented in docs/rules.md): ``alpha = 0.5`` and ``p_min = 1e-8`` (``1e-9`` for the
@@ -39,7 +39,7 @@ DEFAULT_CLIP = (0.001, 0.999)
 
 @dataclass(frozen=True)
 class LearnOptions:
-    """Knobs of the rule learner; the defaults are the documented ones (A.10)."""
+    """Knobs of the rule learner; the defaults are the documented ones (docs/rules.md, Defaults and options)."""
 
     alpha: float = ALPHA
     p_min: float = P_MIN
@@ -71,7 +71,7 @@ class RuleFit:
 
 def examples_from_transitions(transitions: Iterable[tuple[frozenset, Atom, frozenset, tuple[str, ...]]]
                               ) -> list[Example]:
-    """Merge identical transitions into weighted examples (same score, less work; A.5)."""
+    """Merge identical transitions into weighted examples (same score, less work)."""
     counts: dict[tuple, float] = {}
     for s, a, s2, objs in transitions:
         key = (s, a, s2, tuple(objs))
@@ -162,7 +162,7 @@ class ActionLearner:
 
     def _refit(self, f: RuleFit, unique: frozenset[int]) -> RuleFit:
         """``f`` with its outcomes fitted on the examples it covers alone (the rest go to the default
-        rule, A.3); its ``covered`` set stays, so overlaps are still seen when the set changes."""
+        rule); its ``covered`` set stays, so overlaps are still seen when the set changes."""
         if unique == f.covered:
             return f
         key = (f.rule.context, unique)
@@ -306,7 +306,7 @@ class ActionLearner:
                 best, best_sc = c, sc
         return best, best_sc
 
-    # --- operators (A.9) -----------------------------------------------------------------------
+    # --- operators (Pasula et al. 2007) ---------------------------------------------------------------------
     def explain_examples(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
         covered = set().union(*(f.covered for f in R)) if R else set()
         free = [i for i in range(len(self.table)) if i not in covered]
@@ -322,7 +322,7 @@ class ActionLearner:
                 yield self.integrate(R, [f])
 
     def _explain(self, i: int, R: tuple[RuleFit, ...] = (), starts: set | None = None) -> RuleFit | None:
-        """A rule built from example ``i`` (A.9 steps 1-4), trimmed greedily against ``R``;
+        """A rule built from example ``i`` (ExplainExamples, steps 1-4), trimmed greedily against ``R``;
         None if it starts as a rule in ``starts`` (already tried)."""
         ex = self.table.examples[i]
         if self.opts.injective and len(set(ex.action.args)) != len(ex.action.args):
@@ -357,7 +357,7 @@ class ActionLearner:
 
     def _trim(self, ctx: set[Literal], seed: int, needed_vars: set[str], R: tuple[RuleFit, ...]) -> RuleFit | None:
         """Greedily drop literals, then whole references, while the score of the rule set with the
-        rule integrated rises. (A.9 scores ``{r, default}`` alone; but then a rule that swallows
+        rule integrated rises. (Pasula et al. score ``{r, default}`` alone; but then a rule that swallows
         examples it can only call noise costs nothing, since the default rule would call them noise
         too, and trimming over-generalises. Scoring against ``R`` prices what the rule displaces.)"""
         def ok(f: RuleFit | None) -> bool:
@@ -457,7 +457,7 @@ class ActionLearner:
 
     def add_exceptions(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
         """A specialisation of a rule added *beside* it (not integrated): where both cover, neither
-        applies and the default rule (no change) takes over (A.3). This states conditions NID
+        applies and the default rule (no change) takes over. This states conditions NID
         contexts cannot, such as "the hand is empty" without a predicate for it: the exception
         ``closeHandAround(X): clear(X), inhand(Y)`` removes the full-hand cases from the grasp
         rule. Candidates: the rule's context plus one literal (AddLits) or one reference (AddRefs)."""
@@ -484,7 +484,7 @@ class ActionLearner:
 def _smooth(f: RuleFit, a: float) -> RuleFit:
     """The final outcome probabilities: "no change" gets ``a`` pseudo-counts on top of the ``n``
     examples the rule was fitted on, ``p_nochange = (n p + a) / (n + a)``, the rest shrinks by
-    ``n / (n + a)``. The search scores maximum-likelihood fits (A.5); this estimate is for
+    ``n / (n + a)``. The search scores maximum-likelihood fits; this estimate is for
     prediction. With little data a rule's context is often broader than the truth, or its failure
     was never seen; then "nothing happens" would cost ``log(noise * p_min)`` (about -20 nats) per
     held-out transition, and that is what loses the most likelihood (docs/rules.md)."""

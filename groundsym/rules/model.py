@@ -1,6 +1,6 @@
 """NID rules: what a rule is, which rule covers an example, and how likely a transition is.
 
-Semantics follow ALGORITHMS.md A.2-A.4 (Pasula et al. 2007, as libPRADA implements them):
+Semantics follow Pasula, Zettlemoyer & Kaelbling (2007), as libPRADA implements them (docs/rules.md):
 
 * A :class:`Rule` has an action template over variables (``(openHandOver ?x)``), a context of
   literals over the action variables and deictic references (any other variable in the context),
@@ -98,7 +98,7 @@ class Rule:
         return self.variables[len(set(self.action.args)):]
 
     def complexity(self) -> int:
-        """PEN(r): context literals plus literals across all outcomes (A.5)."""
+        """PEN(r): context literals plus literals across all outcomes (Pasula et al. 2007, the complexity penalty)."""
         return len(self.context) + sum(len(o.changes) for o in self.outcomes)
 
     def bindings(self, state: frozenset, action: Atom, injective: bool = True,

@@ -1,4 +1,4 @@
-"""A rule's outcomes: which ones (InduceOutcomes, ALGORITHMS.md A.7) and how likely (EM, A.6).
+"""A rule's outcomes: which ones (InduceOutcomes, Pasula et al. 2007) and how likely (EM; docs/algorithms.md, NID rules).
 
 Given the examples a rule covers, each with its unique binding, the candidate outcomes are the
 distinct observed changes written over the rule's variables. Their probabilities maximise the
@@ -19,7 +19,7 @@ from ..logic import Literal
 from .coverage import Coverage, ExampleTable
 from .model import Outcome
 
-PROB_EPS = 1e-6       # outcomes fitted below this probability are dropped (A.6, trimming)
+PROB_EPS = 1e-6       # outcomes fitted below this probability are dropped (trimming)
 NOISE_FLOOR = 1e-6    # the noise outcome keeps at least this mass, so no transition is impossible
 MAX_ADD_PAIRS = 400   # ADD moves tried per step when a rule has very many candidate outcomes
 
@@ -27,7 +27,7 @@ MAX_ADD_PAIRS = 400   # ADD moves tried per step when a rule has very many candi
 def fit_outcome_probs(cover: np.ndarray, p_min: float, weights: np.ndarray | None = None, *,
                       iters: int = 2000, tol: float = 1e-11,
                       noise_floor: float = NOISE_FLOOR) -> tuple[np.ndarray, float]:
-    """Maximum-likelihood outcome probabilities (A.6).
+    """Maximum-likelihood outcome probabilities.
 
     ``cover`` is N x K (example e is produced by outcome i); the noise outcome explains every
     example with likelihood ``p_min``. Returns ``(p, p_noise)`` with ``p.sum() + p_noise == 1``.
@@ -127,7 +127,7 @@ def lifted_changes(table: ExampleTable, cov: Coverage) -> list[Outcome | None]:
 
 
 def induce_outcomes(table: ExampleTable, cov: Coverage, alpha: float, p_min: float) -> OutcomeFit:
-    """InduceOutcomes (A.7): observed changes as candidates, then greedy ADD/REMOVE with refitting.
+    """InduceOutcomes (Pasula et al. 2007): observed changes as candidates, then greedy ADD/REMOVE with refitting.
 
     Outcomes are interned as integers during the search (sets of them are hashed many times)."""
     w = table.weights[cov.index]

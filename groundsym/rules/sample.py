@@ -2,7 +2,7 @@
 
 A hand-written :class:`~groundsym.rules.model.RuleSet` is a genuine stochastic domain; sampling
 from it gives symbolic data with known dynamics, so a learner can be checked against the truth
-(ALGORITHMS.md A.11). The noise outcome has no distribution of its own; here it changes nothing,
+(docs/rules.md, Does learning recover known dynamics?). The noise outcome has no distribution of its own; here it changes nothing,
 which is how PRADA's sampling planners read it too.
 """
 
