@@ -35,7 +35,7 @@ from .rules.evaluate import score_ruleset
 from .rules.io import read_rules, write_rules, write_rules_text
 from .rules.learner import ALPHA, LearnOptions, examples_from_dataset, learn_rules
 from .rules.model import P_MIN, RuleSet
-from .symbolic_traces import SymbolicDataset, dataset_to_doc, read_symbolic_traces
+from .symbolic_traces import SymbolicDataset, read_symbolic_traces, symbolic_traces_doc
 
 RULES, RULES_TXT, REWARD, SYMBOLIC = "rules.json", "rules.txt", "reward.json", "symbolic-traces.json"
 SYMBOLS, TRACES = "symbols.json", "traces.json"
@@ -54,7 +54,7 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     if p_min is not None and not 0 < p_min < 1:
         raise UserError(f"--p-min: must be in (0, 1), got {p_min}")
     out_dir = Path(out_dir)
-    data_doc = dataset_to_doc(sds)
+    data_doc = symbolic_traces_doc(sds)
     data_sha = hashlib.sha256(dumps_json(data_doc, indent=None).encode()).hexdigest()
     opts = LearnOptions(alpha=ALPHA if alpha is None else alpha, p_min=P_MIN if p_min is None else p_min)
     prov = provenance(argv, seed=seed, data_sha256=data_sha)

@@ -15,7 +15,7 @@ from typing import Any, Iterator
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
 from .logic import Atom
-from .traces import _Reader
+from .docreader import DocReader
 
 SCHEMA = "groundsym.symbolic-traces/1"
 
@@ -61,7 +61,7 @@ class SymbolicDataset:
             yield from tr.transitions()
 
 
-def dataset_to_doc(ds: SymbolicDataset) -> dict[str, Any]:
+def symbolic_traces_doc(ds: SymbolicDataset) -> dict[str, Any]:
     traces = []
     for tr in ds.traces:
         steps = [{"state": [str(x) for x in sorted(tr.states[t])], "action": str(a), "reward": float(tr.rewards[t])}
@@ -80,11 +80,11 @@ def dataset_to_doc(ds: SymbolicDataset) -> dict[str, Any]:
 
 
 def write_symbolic_traces(path: str | Path, ds: SymbolicDataset) -> None:
-    atomic_write_json(path, dataset_to_doc(ds), indent=None)
+    atomic_write_json(path, symbolic_traces_doc(ds), indent=None)
 
 
-def doc_to_dataset(doc: Any, path: str | Path = "<symbolic traces>") -> SymbolicDataset:
-    r = _Reader(path)
+def symbolic_traces_from_doc(doc: Any, path: str | Path = "<symbolic traces>") -> SymbolicDataset:
+    r = DocReader(path)
     if not isinstance(doc, dict):
         raise r.fail("document", "expected a JSON object")
     schema = r.get(doc, "schema", "", str)
@@ -126,7 +126,7 @@ def doc_to_dataset(doc: Any, path: str | Path = "<symbolic traces>") -> Symbolic
 
 
 def read_symbolic_traces(path: str | Path) -> SymbolicDataset:
-    return doc_to_dataset(read_json(path), path)
+    return symbolic_traces_from_doc(read_json(path), path)
 
 
 def require_transitions(ds: SymbolicDataset, path: str | Path, minimum: int = 1) -> None:

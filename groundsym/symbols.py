@@ -26,7 +26,8 @@ from .errors import UserError
 from .fileio import atomic_write_json, read_json
 from .logic import Atom, is_name
 from .symbolic_traces import SymbolicDataset, SymbolicTrace
-from .traces import Dataset, _Reader
+from .docreader import DocReader
+from .traces import Dataset
 from .world import Scene
 
 SCHEMA = "groundsym.symbols/1"
@@ -248,7 +249,7 @@ def save_symbols(path: str | Path, symbol_set: SymbolSet, *, shares: dict[str, f
 def load_symbols(path: str | Path, feature_names: Sequence[str] | None = None) -> SymbolSet:
     """Read and validate ``symbols.json``; with ``feature_names``, check they match the symbols'."""
     doc = read_json(path)
-    r = _Reader(path)
+    r = DocReader(path)
     if not isinstance(doc, dict):
         raise r.fail("document", "expected a JSON object")
     schema = r.get(doc, "schema", "", str)

@@ -8,7 +8,6 @@ with one line naming the file and the field.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
@@ -18,11 +17,11 @@ import numpy as np
 from . import __version__
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
-from .logic import Atom, parse_atom
+from .docreader import DocReader
+from .logic import Atom
 from .world import Scene
 
 SCHEMA = "groundsym.traces/1"
-MAX_MAGNITUDE = 1e12   # features and rewards beyond this overflow squares and sums in the loss
 
 
 @dataclass(eq=False)
@@ -76,7 +75,7 @@ def _scene_doc(scene: Scene) -> dict[str, Any]:
     return doc
 
 
-def dataset_to_doc(ds: Dataset) -> dict[str, Any]:
+def traces_doc(ds: Dataset) -> dict[str, Any]:
     meta = dict(ds.meta)
     meta["feature_names"] = list(ds.feature_names)
     meta["primitives"] = dict(ds.primitives)
@@ -94,75 +93,12 @@ def dataset_to_doc(ds: Dataset) -> dict[str, Any]:
 
 def write_traces(path: str | Path, ds: Dataset) -> None:
     """Write a dataset atomically as ``groundsym.traces/1`` JSON."""
-    atomic_write_json(path, dataset_to_doc(ds), indent=None)
+    atomic_write_json(path, traces_doc(ds), indent=None)
 
 
 # ----------------------------------------------------------------------------- reading
 
-class _Reader:
-    """Validation helpers that name the file and the field in every error."""
-
-    def __init__(self, path: str | Path):
-        self.path = path
-
-    def fail(self, field: str, msg: str) -> UserError:
-        return UserError(f"{self.path}: {field}: {msg}")
-
-    def get(self, doc: Any, key: str, field: str, kind: type | tuple[type, ...]) -> Any:
-        if not isinstance(doc, dict):
-            raise self.fail(field, "expected an object")
-        if key not in doc:
-            raise self.fail(f"{field}.{key}" if field else key, "missing")
-        val = doc[key]
-        if not isinstance(val, kind) or isinstance(val, bool) and kind is not bool:
-            names = kind.__name__ if isinstance(kind, type) else "/".join(k.__name__ for k in kind)
-            raise self.fail(f"{field}.{key}" if field else key, f"expected {names}, got {type(val).__name__}")
-        return val
-
-    def matrix(self, val: Any, field: str, shape: tuple[int | None, ...]) -> np.ndarray:
-        try:
-            arr = np.asarray(val, dtype=float)
-        except (TypeError, ValueError):
-            raise self.fail(field, "expected an array of numbers") from None
-        if arr.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, arr.shape)):
-            want = " x ".join("?" if s is None else str(s) for s in shape)
-            raise self.fail(field, f"expected shape {want}, got {' x '.join(map(str, arr.shape)) or 'scalar'}")
-        if not np.all(np.isfinite(arr)):
-            raise self.fail(field, "contains NaN or infinite values")
-        if arr.size and np.abs(arr).max() > MAX_MAGNITUDE:
-            raise self.fail(field, f"a value of magnitude {np.abs(arr).max():.3g} (at most {MAX_MAGNITUDE:g}: "
-                                   f"larger ones overflow the arithmetic)")
-        return arr
-
-    def number(self, val: Any, field: str) -> float:
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-            raise self.fail(field, f"expected a finite number, got {val!r}")
-        if abs(val) > MAX_MAGNITUDE:
-            raise self.fail(field, f"{float(val):.3g} is beyond {MAX_MAGNITUDE:g} in magnitude (larger values "
-                                   f"overflow the arithmetic)")
-        return float(val)
-
-    def atom(self, val: Any, field: str, objects: set[str] | None = None,
-             arities: dict[str, int] | None = None) -> Atom:
-        if not isinstance(val, str):
-            raise self.fail(field, f"expected an atom string, got {type(val).__name__}")
-        try:
-            atom = parse_atom(val)
-        except ValueError as exc:
-            raise self.fail(field, str(exc)) from None
-        if arities is not None:
-            if atom.predicate not in arities:
-                raise self.fail(field, f"unknown name {atom.predicate!r} (declared: {', '.join(sorted(arities))})")
-            if arities[atom.predicate] != atom.arity:
-                raise self.fail(field, f"{atom.predicate} takes {arities[atom.predicate]} arguments, got {atom.arity}")
-        if objects is not None:
-            for a in atom.args:
-                if a not in objects:
-                    raise self.fail(field, f"unknown object {a!r} in {val}")
-        return atom
-
-
-def _read_scene(r: _Reader, doc: Any, field: str, objects: tuple[str, ...], n_feat: int,
+def _read_scene(r: DocReader, doc: Any, field: str, objects: tuple[str, ...], n_feat: int,
                 need_reward: bool = True) -> Scene:
     M = len(objects)
     feats = r.matrix(r.get(doc, "features", field, list), f"{field}.features", (M, n_feat))
@@ -181,7 +117,7 @@ def _read_scene(r: _Reader, doc: Any, field: str, objects: tuple[str, ...], n_fe
     return Scene(objects, feats, reward, truth, pair, _read_unseen(r, doc, field, objects))
 
 
-def _read_unseen(r: _Reader, doc: dict, field: str, objects: tuple[str, ...]) -> tuple[str, ...]:
+def _read_unseen(r: DocReader, doc: dict, field: str, objects: tuple[str, ...]) -> tuple[str, ...]:
     """The objects a sensor did not see in the scene (optional; none when absent)."""
     unseen = doc.get("unseen", [])
     if not isinstance(unseen, list) or not all(isinstance(o, str) and o in objects for o in unseen):
@@ -189,8 +125,8 @@ def _read_unseen(r: _Reader, doc: dict, field: str, objects: tuple[str, ...]) ->
     return tuple(unseen)
 
 
-def doc_to_dataset(doc: Any, path: str | Path = "<traces>") -> Dataset:
-    r = _Reader(path)
+def traces_from_doc(doc: Any, path: str | Path = "<traces>") -> Dataset:
+    r = DocReader(path)
     if not isinstance(doc, dict):
         raise r.fail("document", "expected a JSON object")
     schema = r.get(doc, "schema", "", str)
@@ -227,7 +163,7 @@ def doc_to_dataset(doc: Any, path: str | Path = "<traces>") -> Dataset:
 
 def read_traces(path: str | Path) -> Dataset:
     """Read and validate a ``groundsym.traces/1`` file."""
-    return doc_to_dataset(read_json(path), path)
+    return traces_from_doc(read_json(path), path)
 
 
 def file_schema(path: str | Path) -> str:

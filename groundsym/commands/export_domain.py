@@ -110,8 +110,8 @@ def initial_state(model: Model, scene: str | None) -> tuple[tuple[str, ...], fro
     doc = read_json(path)
     schema = doc.get("schema") if isinstance(doc, dict) else None
     if schema == "groundsym.symbolic-traces/1":
-        from ..symbolic_traces import doc_to_dataset
-        traces = doc_to_dataset(doc, path).traces
+        from ..symbolic_traces import symbolic_traces_from_doc
+        traces = symbolic_traces_from_doc(doc, path).traces
         tr = _pick(traces, ti, path, "traces")
         if si > len(tr):
             raise UserError(f"{path}: traces[{ti}]: has {len(tr) + 1} states, no step {si}")
