@@ -90,14 +90,7 @@ def symbolic_traces_from_doc(doc: Any, path: str | Path = "<symbolic traces>") -
     schema = r.get(doc, "schema", "", str)
     if schema != SCHEMA:
         raise r.fail("schema", f"expected {SCHEMA!r}, got {schema!r}")
-    arities = {}
-    for key in ("predicates", "primitives"):
-        d = r.get(doc, key, "", dict)
-        for k, v in d.items():
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise r.fail(f"{key}.{k}", "expected a non-negative arity")
-        arities[key] = {str(k): int(v) for k, v in d.items()}
-    preds, prims = arities["predicates"], arities["primitives"]
+    preds, prims = r.arities(doc, "predicates"), r.arities(doc, "primitives")
     traces = []
     for i, tdoc in enumerate(r.get(doc, "traces", "", list)):
         f = f"traces[{i}]"

@@ -136,10 +136,7 @@ def traces_from_doc(doc: Any, path: str | Path = "<traces>") -> Dataset:
     names = r.get(meta, "feature_names", "meta", list)
     if not names or not all(isinstance(n, str) for n in names):
         raise r.fail("meta.feature_names", "expected a non-empty list of names")
-    prims = r.get(meta, "primitives", "meta", dict)
-    for k, v in prims.items():
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise r.fail(f"meta.primitives.{k}", "expected a non-negative arity")
+    prims = r.arities(meta, "primitives", "meta")
     traces_doc = r.get(doc, "traces", "", list)
     traces: list[Trace] = []
     for i, tdoc in enumerate(traces_doc):
@@ -157,7 +154,7 @@ def traces_from_doc(doc: Any, path: str | Path = "<traces>") -> Dataset:
         final = r.get(tdoc, "final", f, dict)
         scenes.append(_read_scene(r, final, f"{f}.final", objects, len(names), need_reward=False))
         traces.append(Trace(objects, scenes, actions))
-    return Dataset(traces, tuple(names), {str(k): int(v) for k, v in prims.items()},
+    return Dataset(traces, tuple(names), prims,
                    {k: v for k, v in meta.items() if k not in ("feature_names", "primitives")})
 
 

@@ -8,13 +8,12 @@ field in its one-line error.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Mapping
 
-from ..errors import UserError
+from ..docreader import DocReader
 from ..fileio import atomic_write_json, atomic_write_text, read_json
-from ..logic import Atom, Literal, is_variable, parse_atom, parse_literal
+from ..logic import is_variable, parse_atom
 from .model import DefaultRule, Derived, Outcome, Rule, RuleSet
 
 SCHEMA = "groundsym.rules/1"
@@ -58,62 +57,16 @@ def write_rules(path: str | Path, rs: RuleSet, **kw: Any) -> None:
     atomic_write_json(path, rules_to_doc(rs, **kw))
 
 
-class _Fields:
-    """Field-naming validation for one rules document."""
-
-    def __init__(self, path: str | Path):
-        self.path = path
-
-    def fail(self, field: str, msg: str) -> UserError:
-        return UserError(f"{self.path}: {field}: {msg}")
-
-    def get(self, doc: Any, key: str, field: str, kind: type | tuple[type, ...], default: Any = ...) -> Any:
-        where = f"{field}.{key}" if field else key
-        if not isinstance(doc, dict):
-            raise self.fail(field or "document", "expected a JSON object")
-        if key not in doc:
-            if default is not ...:
-                return default
-            raise self.fail(where, "missing")
-        v = doc[key]
-        if isinstance(v, bool) and kind is not bool or not isinstance(v, kind):
-            raise self.fail(where, f"expected {getattr(kind, '__name__', kind)}, got {type(v).__name__}")
-        return v
-
-    def prob(self, v: Any, field: str, lo: float = 0.0) -> float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= 1:
-            raise self.fail(field, f"expected a probability in [{lo:g}, 1], got {v!r}")
-        return float(v)
-
-    def literal(self, text: Any, field: str, arities: Mapping[str, int] | None) -> Literal:
-        if not isinstance(text, str):
-            raise self.fail(field, f"expected a literal string, got {type(text).__name__}")
-        try:
-            lit = parse_literal(text)
-        except ValueError as exc:
-            raise self.fail(field, str(exc)) from None
-        self.check_arity(lit.atom, field, arities)
-        return lit
-
-    def check_arity(self, atom: Atom, field: str, arities: Mapping[str, int] | None) -> None:
-        if arities is None:
-            return
-        if atom.predicate not in arities:
-            raise self.fail(field, f"unknown name {atom.predicate!r} (declared: {', '.join(sorted(arities))})")
-        if arities[atom.predicate] != atom.arity:
-            raise self.fail(field, f"{atom.predicate} takes {arities[atom.predicate]} arguments, got {atom.arity}")
-
-
 def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[str, Any]]:
     """Parse and validate a rules document; returns the rule set and the rest (meta) of the file."""
-    f = _Fields(path)
+    f = DocReader(path)
     if not isinstance(doc, dict):
         raise f.fail("document", "expected a JSON object")
     schema = f.get(doc, "schema", "", str)
     if schema != SCHEMA:
         raise f.fail("schema", f"expected {SCHEMA!r}, got {schema!r}")
-    preds = _arities(f, doc, "predicates")
-    prims = _arities(f, doc, "primitives")
+    preds = f.arities(doc, "predicates", default=None)
+    prims = f.arities(doc, "primitives", default=None)
     p_min = f.prob(f.get(doc, "p_min", "", (int, float)), "p_min")
     p_min_def = f.prob(f.get(doc, "p_min_default", "", (int, float)), "p_min_default")
     injective = f.get(doc, "injective", "", bool, True)
@@ -137,7 +90,7 @@ def _derived_text(d: Derived) -> str:
     return f"({d.base} {' '.join(args)})"
 
 
-def _derived(f: _Fields, d: Any, field: str, preds: Mapping[str, int] | None) -> Derived:
+def _derived(f: DocReader, d: Any, field: str, preds: Mapping[str, int] | None) -> Derived:
     name = f.get(d, "name", field, str)
     text = f.get(d, "holds_when_no", field, str)
     try:
@@ -154,17 +107,7 @@ def _derived(f: _Fields, d: Any, field: str, preds: Mapping[str, int] | None) ->
     return Derived(name, atom.predicate, atom.arity, keep)
 
 
-def _arities(f: _Fields, doc: dict, key: str) -> dict[str, int] | None:
-    d = f.get(doc, key, "", dict, None)
-    if d is None:
-        return None
-    for k, v in d.items():
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise f.fail(f"{key}.{k}", "expected a non-negative arity")
-    return dict(d)
-
-
-def _rule(f: _Fields, rd: Any, field: str, preds: Mapping[str, int] | None,
+def _rule(f: DocReader, rd: Any, field: str, preds: Mapping[str, int] | None,
           prims: Mapping[str, int] | None) -> Rule:
     text = f.get(rd, "action", field, str)
     try:
