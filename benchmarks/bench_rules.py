@@ -31,6 +31,7 @@ from examples.rule_recovery import REFERENCE, PPDDLSource  # noqa: E402
 from groundsym.logic import Atom  # noqa: E402
 from groundsym.rules.coverage import ExampleTable  # noqa: E402
 from groundsym.rules.learner import examples_from_dataset, learn_rules  # noqa: E402
+from groundsym.rules.model import with_derived  # noqa: E402
 from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace  # noqa: E402
 
 
@@ -74,11 +75,12 @@ def main() -> None:
         by_action.setdefault(e.action.predicate, []).append(e)
     t_vec = t_ref = 0.0
     for name, exs in by_action.items():
-        table = ExampleTable(exs, clean.predicates)
+        table = ExampleTable(exs, clean.predicates, rs.derived)   # contexts may use derived predicates
+        states = [with_derived(e.state, rs.derived, e.objects) for e in exs]   # as the table holds them
         for r in rs.rules_for(name):
             cov, t = timed(table.cover, r.action, r.context)
             t_vec += t
-            ref, t = timed(lambda: [r.covers(e.state, e.action, True, e.objects) for e in exs])
+            ref, t = timed(lambda: [r.covers(s, e.action, True, e.objects) for s, e in zip(states, exs)])
             t_ref += t
             assert len(cov) == sum(b is not None for b in ref)
     print(f"coverage: vectorised {t_vec * 1e3:.2f} ms vs backtracking {t_ref * 1e3:.2f} ms "
