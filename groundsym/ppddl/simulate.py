@@ -25,11 +25,12 @@ import numpy as np
 from ..errors import UserError
 from ..logic import Atom, Literal
 from ..symbolic_traces import SymbolicDataset, SymbolicTrace
-from .ast import (OBJECT, TRUE as TRUE_F, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
+from .ast import (OBJECT, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
                   Or, Probabilistic, Problem, RewardEffect, Typed, When)
 from .convert import primitive_of
+from .ground import (FALSE, NOTHING, Outcome, distinct_pairs, effect_literals, ground_effect, ground_formula,
+                     ground_literals, has_when, is_a, product_of)
 
-Outcome = tuple[float, frozenset, frozenset, float]          # probability, adds, dels, reward
 
 
 @dataclass(frozen=True)
@@ -60,7 +61,7 @@ class Task:
         parents = {t.name: t.type for t in domain.types}
         self._by_type: dict[str, tuple[str, ...]] = {}
         for tname in {OBJECT, *parents}:
-            self._by_type[tname] = tuple(sorted(o for o, t in self.objects.items() if _is_a(t, tname, parents)))
+            self._by_type[tname] = tuple(sorted(o for o, t in self.objects.items() if is_a(t, tname, parents)))
         self._parents = parents
         self._actions = {a.name: a for a in domain.actions}
         self._primitives = _primitive_table(domain)
@@ -146,7 +147,7 @@ class Task:
         a = self.action(action.predicate)
         if len(a.parameters) != action.arity:
             return False
-        if any(self.objects.get(x) is None or not _is_a(self.objects[x], p.type, self._parents)
+        if any(self.objects.get(x) is None or not is_a(self.objects[x], p.type, self._parents)
                for x, p in zip(action.args, a.parameters)):
             return False
         ga = self.ground(action)
@@ -185,7 +186,7 @@ class Task:
         if self._index is None:
             triggered: dict[Atom, list[_GroundAction]] = {}
             always: list[_GroundAction] = []
-            changing = {l.atom.predicate for a in self.domain.actions for l in _effect_literals(a.effect)}
+            changing = {l.atom.predicate for a in self.domain.actions for l in effect_literals(a.effect)}
             for a in self.domain.actions:
                 for args in self.groundings(a.name):
                     ga = self.ground(Atom(a.name, args))
@@ -204,7 +205,7 @@ class Task:
             atom = frozenset((e.atom.substitute(b),))
             return [(1.0, atom, frozenset(), 0.0)] if e.positive else [(1.0, frozenset(), atom, 0.0)]
         if isinstance(e, AndEffect):
-            return _product([self._effect(x, state, b) for x in e.effects])
+            return product_of([self._effect(x, state, b) for x in e.effects])
         if isinstance(e, Probabilistic):
             out: list[Outcome] = []
             for p, sub in e.branches:
@@ -213,10 +214,10 @@ class Task:
                 out.append((float(e.rest), frozenset(), frozenset(), 0.0))
             return out
         if isinstance(e, When):
-            return self._effect(e.effect, state, b) if self.holds(e.condition, state, b) else [_NOTHING]
+            return self._effect(e.effect, state, b) if self.holds(e.condition, state, b) else [NOTHING]
         if isinstance(e, ForallEffect):
             names = [p.name for p in e.params]
-            return _product([self._effect(e.effect, state, dict(b, **dict(zip(names, vals))))
+            return product_of([self._effect(e.effect, state, dict(b, **dict(zip(names, vals))))
                              for vals in self._groundings(e.params)])
         if isinstance(e, RewardEffect):
             return [(1.0, frozenset(), frozenset(), float(e.amount))]
@@ -238,7 +239,7 @@ class Task:
         out: set[Atom] = set()
         for name, (n, actions) in self._primitives.items():
             for aname in actions:
-                apart = _distinct_pairs(self.action(aname), n)
+                apart = distinct_pairs(self.action(aname), n)
                 out.update(Atom(name, args[:n]) for args in self.groundings(aname)
                            if not any(args[i] == args[j] for i, j in apart))
         return sorted(out)
@@ -298,9 +299,6 @@ class Task:
         return sum(x.prob for x in dist if x.state == s2)
 
 
-_NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)
-
-
 def _atom_key(a: Atom) -> tuple:
     """Atoms' own order as a tuple (compared in C: sorting is the simulator's hot spot)."""
     return a.predicate, a.args
@@ -317,9 +315,6 @@ def _compare(x: Successor, y: Successor) -> int:
 
 def _in_order(successors: Iterable[Successor]) -> list[Successor]:
     return sorted(successors, key=cmp_to_key(_compare))
-_FALSE = Or(())
-
-
 class _GroundAction:
     """One ground PPDDL action, compiled: a precondition that is a conjunction of ground literals
     becomes two atom sets (``pos`` must hold, ``neg`` must not); any other precondition keeps its
@@ -336,18 +331,18 @@ class _GroundAction:
     def build(task: "Task", action: Atom) -> "_GroundAction | None":
         a = task.action(action.predicate)
         if len(a.parameters) != action.arity or any(
-                task.objects.get(x) is None or not _is_a(task.objects[x], p.type, task._parents)
+                task.objects.get(x) is None or not is_a(task.objects[x], p.type, task._parents)
                 for x, p in zip(action.args, a.parameters)):
             return None
         b = dict(zip((p.name for p in a.parameters), action.args))
-        pre = _ground_formula(a.precondition, b)
-        if pre == _FALSE:
+        pre = ground_formula(a.precondition, b)
+        if pre == FALSE:
             return None
-        lits = _literals(pre)
+        lits = ground_literals(pre)
         pos = frozenset(x for x, positive in lits if positive) if lits is not None else frozenset()
         neg = frozenset(x for x, positive in lits if not positive) if lits is not None else frozenset()
-        effect = _ground_effect(task, a.effect, b)
-        fixed = task._effect(effect, frozenset(), {}) if not _has_when(effect) else None
+        effect = ground_effect(a.effect, b, task._groundings)
+        fixed = task._effect(effect, frozenset(), {}) if not has_when(effect) else None
         return _GroundAction(action, pos, neg, None if lits is not None else pre, effect, fixed)
 
     def applicable(self, task: "Task", state: frozenset) -> bool:
@@ -357,114 +352,6 @@ class _GroundAction:
 
     def deltas(self, task: "Task", state: frozenset) -> list[Outcome]:
         return self.fixed if self.fixed is not None else task._effect(self.effect, state, {})
-
-
-def _ground_formula(f: Formula, b: Mapping[str, str]) -> Formula:
-    """``f`` with ``b`` substituted and equalities between constants decided (True: ``(and)``,
-    False: ``(or)``); quantifiers stay (their variables are not in ``b``)."""
-    if isinstance(f, Atom):
-        g = f.substitute(b)
-        if g.predicate == "=" and g.is_ground():
-            return TRUE_F if g.args[0] == g.args[1] else _FALSE
-        return g
-    if isinstance(f, Not):
-        x = _ground_formula(f.arg, b)
-        return _FALSE if x == TRUE_F else TRUE_F if x == _FALSE else Not(x)
-    if isinstance(f, (And, Or)):
-        parts = [_ground_formula(g, b) for g in f.args]
-        absorbing, unit = (_FALSE, TRUE_F) if isinstance(f, And) else (TRUE_F, _FALSE)
-        if absorbing in parts:
-            return absorbing
-        kept = tuple(x for x in parts if x != unit)
-        return kept[0] if len(kept) == 1 else type(f)(kept)
-    if isinstance(f, Imply):
-        return _ground_formula(Or((Not(f.left), f.right)), b)
-    inner = {k: v for k, v in b.items() if k not in {p.name for p in f.params}}
-    return type(f)(f.params, _ground_formula(f.body, inner))
-
-
-def _literals(f: Formula) -> list[tuple[Atom, bool]] | None:
-    """A ground conjunction of literals as (atom, positive) pairs; None for any other formula."""
-    parts = f.args if isinstance(f, And) else (f,)
-    out = []
-    for g in parts:
-        if isinstance(g, Atom) and g.predicate != "=":
-            out.append((g, True))
-        elif isinstance(g, Not) and isinstance(g.arg, Atom) and g.arg.predicate != "=":
-            out.append((g.arg, False))
-        else:
-            return None
-    return out
-
-
-def _ground_effect(task: "Task", e: Effect, b: Mapping[str, str]) -> Effect:
-    if isinstance(e, Literal):
-        return e.substitute(b)
-    if isinstance(e, AndEffect):
-        return AndEffect(tuple(_ground_effect(task, x, b) for x in e.effects))
-    if isinstance(e, Probabilistic):
-        return Probabilistic(tuple((p, _ground_effect(task, x, b)) for p, x in e.branches))
-    if isinstance(e, When):
-        return When(_ground_formula(e.condition, b), _ground_effect(task, e.effect, b))
-    if isinstance(e, ForallEffect):
-        names = [p.name for p in e.params]
-        return AndEffect(tuple(_ground_effect(task, e.effect, dict(b, **dict(zip(names, vals))))
-                               for vals in task._groundings(e.params)))
-    return e
-
-
-def _effect_literals(e: Effect) -> list[Literal]:
-    """Every literal an effect may set (under any branch or condition)."""
-    if isinstance(e, Literal):
-        return [e]
-    if isinstance(e, AndEffect):
-        return [l for x in e.effects for l in _effect_literals(x)]
-    if isinstance(e, Probabilistic):
-        return [l for _, x in e.branches for l in _effect_literals(x)]
-    if isinstance(e, (When, ForallEffect)):
-        return _effect_literals(e.effect)
-    return []
-
-
-def _has_when(e: Effect) -> bool:
-    if isinstance(e, When):
-        return True
-    if isinstance(e, AndEffect):
-        return any(_has_when(x) for x in e.effects)
-    if isinstance(e, Probabilistic):
-        return any(_has_when(x) for _, x in e.branches)
-    return False
-
-
-def _distinct_pairs(action: Action, n: int) -> list[tuple[int, int]]:
-    """Index pairs among the first ``n`` parameters that a top-level ``(not (= ?x ?y))`` keeps apart."""
-    names = [p.name for p in action.parameters[:n]]
-    pre = action.precondition
-    out = []
-    for c in (pre.args if isinstance(pre, And) else (pre,)):
-        if isinstance(c, Not) and isinstance(c.arg, Atom) and c.arg.predicate == "=":
-            x, y = c.arg.args
-            if x in names and y in names:
-                out.append((names.index(x), names.index(y)))
-    return out
-
-
-def _product(parts: list[list[Outcome]]) -> list[Outcome]:
-    """Independent effects combined: probabilities multiply, changes and rewards add up."""
-    out: list[Outcome] = [_NOTHING]
-    for part in parts:
-        out = [(p * q, a1 | a2, d1 | d2, r1 + r2) for p, a1, d1, r1 in out for q, a2, d2, r2 in part]
-    return out
-
-
-def _is_a(tname: str, ancestor: str, parents: Mapping[str, str]) -> bool:
-    seen = set()
-    while tname not in seen:
-        if tname == ancestor or ancestor == OBJECT:
-            return True
-        seen.add(tname)
-        tname = parents.get(tname, OBJECT)
-    return False
 
 
 def _primitive_table(domain: Domain) -> dict[str, tuple[int, list[str]]]:
@@ -551,7 +438,7 @@ def typed_objects(domain: Domain, objects: Iterable[str], state: frozenset) -> d
     out = {}
     for o in objects:
         kinds = [t for t in parents if Atom(probe.type_predicate(t), (o,)) in state]
-        deepest = [t for t in kinds if all(_is_a(t, k, parents) for k in kinds)]
+        deepest = [t for t in kinds if all(is_a(t, k, parents) for k in kinds)]
         out[o] = deepest[0] if deepest else OBJECT
     return out
 
