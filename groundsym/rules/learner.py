@@ -17,21 +17,27 @@ Defaults (documented in docs/rules.md): ``alpha = 0.5`` and ``p_min = 1e-8`` (``
 default rule), as in the libPRADA demos and GLIB; the default rule's noise share is the weighted
 share of changed examples it covers, clipped to ``[0.001, 0.999]``; the final outcome
 probabilities give "no change" a pseudo-count of 0.5 (docs/rules.md).
+
+Why one module of about 500 lines: :class:`ActionLearner` is one search, and its operators are
+methods over the state it keeps (the example table, the fits it has made, the declared
+predicates); split across modules they would pass that state around. What is a function of a
+context and a state alone lives in :mod:`groundsym.rules.contexts`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from itertools import permutations, product
 from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from ..logic import Atom, Literal, is_variable
+from ..logic import Atom, Literal
 from ..progress import Progress
 from .coverage import Coverage, Example, ExampleTable
 from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Derived, Outcome, Rule, RuleSet
-from .outcomes import OutcomeFit, induce_outcomes
+from .contexts import (absent_literals, atoms_over, binds_uniquely, canonical_names, deictic_refs, fresh_variable,
+                       lift_atoms, make_rule, valid_context)
+from .outcomes import induce_outcomes
 
 ALPHA = 0.5
 DEFAULT_CLIP = (0.001, 0.999)
@@ -48,7 +54,7 @@ class LearnOptions:
     default_clip: tuple[float, float] = DEFAULT_CLIP
     max_seeds: int = 25          # ExplainExamples seed examples per call (GLIB uses 25)
     max_rounds: int = 100        # operator rounds per action
-    max_deictic: int = 2         # deictic references per rule
+    maxdeictic_refs: int = 2         # deictic references per rule
     nochange_prior: float = 0.5  # pseudo-count of "no change" in the final outcome probabilities
     drop_order: str = "general"  # trimming tries the most general literals first ("sorted": by name)
     complete: bool = True        # add the positive literals the data say the action needs (_complete)
@@ -117,7 +123,7 @@ def learn_rules(examples: Sequence[Example], predicates: dict[str, int], options
                                 np.random.default_rng(rng.integers(2**63)))
         fits, default, stats = learner.learn(
             lambda r, n, sc, name=name, k=k: bar.update(k, f"{name}: round {r}, {n} rules, score {sc:.2f}"))
-        rules.extend(_canonical(f.rule) for f in fits)
+        rules.extend(canonical_names(f.rule) for f in fits)
         defaults.append((name, default))
         report.per_action[name] = stats
         bar.update(k + 1, f"{name}: {len(fits)} rules, score {stats['score']:.2f}")
@@ -150,12 +156,12 @@ class ActionLearner:
         if ctx in self._fits:
             return self._fits[ctx]
         result = None
-        if _valid_context(ctx, self.action, self.opts.max_deictic):
+        if valid_context(ctx, self.action, self.opts.maxdeictic_refs):
             cov = self.table.cover(self.action, ctx, self.opts.injective)
             if len(cov):
                 self._covs[ctx] = cov
                 of = induce_outcomes(self.table, cov, self.opts.alpha, self.opts.p_min)
-                result = RuleFit(_make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik,
+                result = RuleFit(make_rule(self.action, ctx, of), frozenset(cov.index.tolist()), of.loglik,
                                  float(self.table.weights[cov.index].sum()))
         self._fits[ctx] = result
         return result
@@ -172,7 +178,7 @@ class ActionLearner:
             sub = Coverage(cov.index[keep], cov.binding[keep], cov.variables)
             if len(sub):
                 of = induce_outcomes(self.table, sub, self.opts.alpha, self.opts.p_min)
-                rule, ll = _make_rule(self.action, f.rule.context, of), of.loglik
+                rule, ll = make_rule(self.action, f.rule.context, of), of.loglik
                 n = float(self.table.weights[sub.index].sum())
             else:                     # covers nothing alone: keeps its own fit, explains nothing here
                 rule, ll, n = f.rule, 0.0, f.fitted_on
@@ -258,7 +264,7 @@ class ActionLearner:
         needs: it holds in every training example the rule covers (so coverage and fit stay), and
         in every training example of the action where it is false, nothing changed."""
         ctx = set(f.rule.context)
-        for a in _atoms_over(self.action.args, self._declared, self.opts.injective):
+        for a in atoms_over(self.action.args, self._declared, self.opts.injective):
             lit = Literal(a, True)
             if Literal(a, False) in ctx or lit in ctx or not self._needed(a):
                 continue
@@ -277,7 +283,7 @@ class ActionLearner:
         for lit in sorted(l for l in f.rule.context if l.atom.predicate in derived):
             present = {l.atom for l in ctx}
             swaps = [Literal(a, sign) for sign in (lit.positive, not lit.positive)
-                     for a in _atoms_over(f.rule.variables, self._declared, self.opts.injective) if a not in present]
+                     for a in atoms_over(f.rule.variables, self._declared, self.opts.injective) if a not in present]
             for new in swaps:
                 c = (ctx - {lit}) | {new}
                 g = self.fit(c)
@@ -329,20 +335,20 @@ class ActionLearner:
             return None
         state = self.table.full_state(i)
         sigma = dict(zip(ex.action.args, self.action.args))       # object -> variable
-        ctx = set(_lift_atoms(state, sigma, positive=True))
-        ctx |= set(_absent_literals(state, sigma, self.table.predicates, self.opts.injective))
+        ctx = set(lift_atoms(state, sigma, positive=True))
+        ctx |= set(absent_literals(state, sigma, self.table.predicates, self.opts.injective))
         changed_objs = sorted({x for a in ex.adds | ex.dels for x in a.args} - set(sigma))
         for c in changed_objs:
-            if len(sigma) - len(self.action.args) >= self.opts.max_deictic:
+            if len(sigma) - len(self.action.args) >= self.opts.maxdeictic_refs:
                 return None
             trial = dict(sigma, **{c: f"?y{len(sigma) - len(self.action.args) + 1}"})
-            lits = [l for l in _lift_atoms(state, trial, positive=True) if trial[c] in l.atom.args]
-            if not (lits and _unique(state, ex, self.action, ctx | set(lits), self.opts.injective)):
+            lits = [l for l in lift_atoms(state, trial, positive=True) if trial[c] in l.atom.args]
+            if not (lits and binds_uniquely(state, ex, self.action, ctx | set(lits), self.opts.injective)):
                 # a negated reference: "the one object that is not u1" (the held cube, when a learned
                 # u1 is the negation of inhand), with the positive links if there are any
-                lits += [l for l in _absent_literals(state, trial, self.table.predicates, self.opts.injective)
+                lits += [l for l in absent_literals(state, trial, self.table.predicates, self.opts.injective)
                          if trial[c] in l.atom.args]
-            if lits and _unique(state, ex, self.action, ctx | set(lits), self.opts.injective):
+            if lits and binds_uniquely(state, ex, self.action, ctx | set(lits), self.opts.injective):
                 sigma, ctx = trial, ctx | set(lits)
             else:
                 return None
@@ -369,7 +375,7 @@ class ActionLearner:
             changed = True
             while changed:                    # first-improvement sweeps: O(literals) fits per sweep
                 changed = False
-                units = _deictic(ctx, self.action) if drop_vars else self._drop_order(ctx)
+                units = deictic_refs(ctx, self.action) if drop_vars else self._drop_order(ctx)
                 for u in units:
                     c = {l for l in ctx if u not in l.atom.args} if drop_vars else ctx - {u}
                     if c == ctx or (drop_vars and u not in {a for l in ctx for a in l.atom.args}):
@@ -437,11 +443,11 @@ class ActionLearner:
 
     def add_refs(self, R: tuple[RuleFit, ...]) -> Iterable[tuple[RuleFit, ...]]:
         for k, f in enumerate(R):
-            if len(f.rule.deictic) >= self.opts.max_deictic:
+            if len(f.rule.deictic) >= self.opts.maxdeictic_refs:
                 continue
-            v = _fresh(f.rule)
+            v = fresh_variable(f.rule)
             vars_ = (*f.rule.variables, v)
-            atoms = [a for a in _atoms_over(vars_, self.table.predicates, self.opts.injective) if v in a.args]
+            atoms = [a for a in atoms_over(vars_, self.table.predicates, self.opts.injective) if v in a.args]
             ctx = set(f.rule.context)
             yield from self._replace(R, k, (ctx | {Literal(a, sign)} for a in atoms for sign in (True, False)))
 
@@ -464,10 +470,10 @@ class ActionLearner:
         for f in R:
             ctx = set(f.rule.context)
             specials = [ctx | {l} for a in self._absent_atoms(f.rule) for l in (Literal(a, True), Literal(a, False))]
-            if len(f.rule.deictic) < self.opts.max_deictic:
-                v = _fresh(f.rule)
+            if len(f.rule.deictic) < self.opts.maxdeictic_refs:
+                v = fresh_variable(f.rule)
                 specials += [ctx | {Literal(a, True)} for a in
-                             _atoms_over((*f.rule.variables, v), self.table.predicates, self.opts.injective)
+                             atoms_over((*f.rule.variables, v), self.table.predicates, self.opts.injective)
                              if v in a.args]
             for c in specials:
                 g = self.fit(c)
@@ -476,7 +482,7 @@ class ActionLearner:
 
     def _absent_atoms(self, rule: Rule) -> list[Atom]:
         present = {l.atom for l in rule.context}
-        return [a for a in _atoms_over(rule.variables, self.table.predicates, self.opts.injective)
+        return [a for a in atoms_over(rule.variables, self.table.predicates, self.opts.injective)
                 if a not in present]
 
 
@@ -501,71 +507,3 @@ def _smooth(f: RuleFit, a: float) -> RuleFit:
     rule = Rule(r.action, r.context, tuple(outs[k] for k in keep), tuple(probs[k] for k in keep),
                 r.noise * n / (n + a), r.noise_changes)
     return RuleFit(rule, f.covered, f.loglik, n)
-
-
-def _make_rule(action: Atom, ctx: tuple[Literal, ...], of: OutcomeFit) -> Rule:
-    return Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
-
-
-def _deictic(ctx: Iterable[Literal], action: Atom) -> list[str]:
-    out: list[str] = []
-    for l in sorted(ctx):
-        for a in l.atom.args:
-            if is_variable(a) and a not in action.args and a not in out:
-                out.append(a)
-    return out
-
-
-def _valid_context(ctx: tuple[Literal, ...], action: Atom, max_deictic: int) -> bool:
-    """No contradictions, few references. A reference that only negated literals mention is allowed
-    ("the one object that is not u1"): under the closed world and the exactly-one-binding rule it
-    names an object as well as a positive one does (Pasula et al. allow negated literals in
-    deictic references)."""
-    atoms = {l.atom for l in ctx}
-    if len(atoms) != len(ctx):
-        return False
-    return len(_deictic(ctx, action)) <= max_deictic
-
-
-def _lift_atoms(state: frozenset, sigma: dict[str, str], positive: bool) -> list[Literal]:
-    """Atoms of ``state`` whose arguments are all bound by ``sigma``, over variables."""
-    return [Literal(a.substitute(sigma), positive) for a in sorted(state) if all(x in sigma for x in a.args)]
-
-
-def _atoms_over(variables: Sequence[str], predicates: dict[str, int], injective: bool) -> list[Atom]:
-    out = []
-    for p, k in sorted(predicates.items()):
-        gen = permutations(variables, k) if injective else product(variables, repeat=k)
-        out.extend(Atom(p, tuple(args)) for args in gen)
-    return out
-
-
-def _absent_literals(state: frozenset, sigma: dict[str, str], predicates: dict[str, int],
-                     injective: bool) -> list[Literal]:
-    """Negated literals for the atoms over ``sigma``'s objects that are false in ``state``."""
-    inv = {v: o for o, v in sigma.items()}
-    return [Literal(a, False) for a in _atoms_over(sorted(inv), predicates, injective)
-            if a.substitute(inv) not in state]
-
-
-def _unique(state: frozenset, ex: Example, action: Atom, ctx: set[Literal], injective: bool) -> bool:
-    """The context binds exactly one way in ``state`` (example ``ex``'s, with its derived atoms)."""
-    probe = Rule(action, tuple(sorted(ctx)), (), (), 1.0)
-    return probe.covers(state, ex.action, injective, ex.objects) is not None
-
-
-def _fresh(rule: Rule) -> str:
-    k = 1
-    while f"?y{k}" in rule.variables:
-        k += 1
-    return f"?y{k}"
-
-
-def _canonical(rule: Rule) -> Rule:
-    """Rename deictic references ?y1, ?y2, ... in order of first appearance (readable, stable)."""
-    ren = {v: f"?y{i + 1}" for i, v in enumerate(rule.deictic)}
-    if all(k == v for k, v in ren.items()):
-        return rule
-    ctx = tuple(sorted(l.substitute(ren) for l in rule.context))
-    outs = tuple(type(o)(tuple(l.substitute(ren) for l in o.changes)) for o in rule.outcomes)
-    return Rule(rule.action, ctx, outs, rule.probs, rule.noise, rule.noise_changes)
