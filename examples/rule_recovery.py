@@ -93,7 +93,7 @@ class PPDDLSource:
         """The operators' contexts where the domain is in the rule subset, else their preconditions."""
         from groundsym.errors import UserError
         from groundsym.ppddl.ast import layout, to_sexp
-        from groundsym.ppddl.convert import domain_to_rules
+        from groundsym.ppddl.to_rules import domain_to_rules
 
         try:
             return sorted(canonical_context(r) for r in domain_to_rules(self.domain).rules)

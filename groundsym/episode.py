@@ -269,7 +269,7 @@ def ppddl_model(domain: Any, problem: Any, task: Any, need_rules: bool = True) -
     and the domain and problem themselves (for the external planners)."""
     from .errors import UserError
     from .planner import PlanningModel
-    from .ppddl.convert import domain_to_rules
+    from .ppddl.to_rules import domain_to_rules
 
     try:
         rules = domain_to_rules(domain)

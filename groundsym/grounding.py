@@ -70,6 +70,23 @@ def grounded(doc: Mapping[str, Any], good: float) -> dict[str, float]:
     return out
 
 
+def suggested_names(matches: list, good: float = 0.5) -> dict[str, str]:
+    """Symbol -> the relation it matches (same argument order, F1 >= ``good``), or ``not-<relation>``
+    when its negation matches better; a relation two symbols match goes to the better one."""
+    best: dict[str, tuple[float, str]] = {}
+    for m in matches:
+        options = []
+        if m.best_match and m.argument_order == "same" and m.f1 >= good:
+            options.append((m.f1, m.best_match))
+        if m.negation_of and (m.negation_f1 or 0) >= max(good, m.f1):
+            options.append((m.negation_f1, f"not-{m.negation_of}"))
+        if options:
+            f1, name = max(options)
+            if name != m.symbol and (name not in best or best[name][0] < f1):
+                best[name] = (f1, m.symbol)
+    return {sym: name for name, (_, sym) in sorted(best.items(), key=lambda kv: kv[1][1])}
+
+
 def truth_arrays(ds: Dataset) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Ground truth of every scene as arrays: unary name -> (S, M), binary name -> (S, M, M)."""
     scenes = [(tr.objects, s) for tr in ds.traces for s in tr.scenes]

@@ -11,7 +11,7 @@ import pytest
 from groundsym.errors import UserError
 from groundsym.logic import Atom, Literal
 from groundsym.ppddl.ast import AndEffect, Probabilistic
-from groundsym.ppddl.convert import requirements
+from groundsym.ppddl.requirements import requirements
 from groundsym.ppddl.determinize import determinize, outcomes, primitive_plan, solve
 from groundsym.ppddl.parser import load, parse_domain
 from groundsym.ppddl.simulate import Task

@@ -13,10 +13,12 @@ from groundsym.cli import main
 from groundsym.logic import Atom, parse_atom
 from groundsym.modeldir import learn_symbolic_model
 from groundsym.ppddl.ast import And
-from groundsym.ppddl.convert import NOISE_PREDICATE, action_to_rule, context_key, domain_to_rules, rules_close
+from groundsym.ppddl.compare import context_key, rules_close
 from groundsym.ppddl.determinize import primitive_plan, solve
 from groundsym.ppddl.parser import load
+from groundsym.ppddl.rule_actions import NOISE_PREDICATE
 from groundsym.ppddl.simulate import Task, simulate_traces
+from groundsym.ppddl.to_rules import action_to_rule, domain_to_rules
 from groundsym.rules.io import read_rules
 from groundsym.symbolic_traces import read_symbolic_traces, write_symbolic_traces
 

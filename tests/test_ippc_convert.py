@@ -14,7 +14,7 @@ import pytest
 from groundsym.errors import UserError
 from groundsym.logic import Atom, parse_atom
 from groundsym.ppddl.ast import Action, ForallEffect, Or, Probabilistic, Problem, Typed, When
-from groundsym.ppddl.convert import action_to_rules, domain_to_rules
+from groundsym.ppddl.to_rules import action_to_rules, domain_to_rules
 from groundsym.ppddl.parser import load
 from groundsym.ppddl.simulate import Task
 

@@ -15,8 +15,10 @@ import pytest
 
 from groundsym.logic import Atom, Literal, parse_atom, parse_literal
 from groundsym.ppddl.ast import Domain, Probabilistic, number
-from groundsym.ppddl.convert import (NOISE_PREDICATE, domain_to_rules, primitive_of, probability, rules_equal,
-                                     rules_to_domain)
+from groundsym.ppddl.compare import rules_equal
+from groundsym.ppddl.from_rules import probability, rules_to_domain
+from groundsym.ppddl.rule_actions import NOISE_PREDICATE, primitive_of
+from groundsym.ppddl.to_rules import domain_to_rules
 from groundsym.ppddl.parser import load, parse_domain, parse_text
 from groundsym.ppddl.simulate import Task
 from groundsym.rules.model import Outcome, Rule, RuleSet
@@ -54,10 +56,11 @@ PREDICATES = {"clear": 1, "inhand": 1, "on": 2, "ontable": 1}
 # domains/reference/tower/domain.ppddl as NID rules (the true rules PRADA can plan with); the file
 # domains/reference/tower/rules.ppddl is exactly their export, and must behave as domain.ppddl does.
 TOWER_RULES_HEADER = (
-    "The tower cell (domain.ppddl beside this file) as NID rules, exported by groundsym.ppddl.convert\n"
-    "from TOWER_REFERENCE_RULES in tests/test_ppddl_writer.py; a test checks that it gives the same\n"
-    "distributions as domain.ppddl on every state the cell can reach. closeHandAround_r3 (a held\n"
-    "object) only blocks: with it, a full hand makes two rules cover, so nothing happens.")
+    "The tower cell (domain.ppddl beside this file) as NID rules, exported by\n"
+    "groundsym.ppddl.from_rules from TOWER_REFERENCE_RULES in tests/test_ppddl_writer.py; a test\n"
+    "checks that it gives the same distributions as domain.ppddl on every state the cell can reach.\n"
+    "closeHandAround_r3 (a held object) only blocks: with it, a full hand makes two rules cover, so\n"
+    "nothing happens.")
 TOWER_REFERENCE_RULES = RuleSet((
     rule("(closeHandAround ?x)", ["(clear ?x)", "(ontable ?x)"],
          [(0.9, ["(inhand ?x)", "(not (ontable ?x))"]), (0.1, [])], 0.0),
@@ -128,7 +131,7 @@ def test_exported_rules_parse_back_to_the_same_rules(noise):
     assert sorted(names) == ["closeHandAround_r1", "closeHandAround_r2", "closeHandAround_r3",
                              "openHandOver_r1", "openHandOver_r2"]
     count: dict[str, int] = {}
-    from groundsym.ppddl.convert import action_to_rule
+    from groundsym.ppddl.to_rules import action_to_rule
     for r in TOWER_RULES.rules:
         count[r.action.predicate] = count.get(r.action.predicate, 0) + 1
         again = action_to_rule(names[f"{r.action.predicate}_r{count[r.action.predicate]}"])

@@ -273,7 +273,8 @@ def test_renaming_a_base_predicate_renames_its_derived_predicates(tmp_path):
     assert rs.covering(state("(stacked a b)"), parse_atom("(closeHandAround a)"), ("a", "b", "c"))[0] is rs.rules[1]
     # so the renamed model's PPDDL export reads back as its rules (it read back as no-stacked-1
     # while the rules said no-on-1)
-    from groundsym.ppddl.convert import domain_to_rules, rules_to_domain
+    from groundsym.ppddl.from_rules import rules_to_domain
+    from groundsym.ppddl.to_rules import domain_to_rules
     from groundsym.ppddl.parser import parse_domain
 
     back = domain_to_rules(parse_domain(str(rules_to_domain(rs, {"inhand": 1, "stacked": 2})), "<export>"))
@@ -284,7 +285,7 @@ def test_renaming_a_base_predicate_renames_its_derived_predicates(tmp_path):
 def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():
     """A derived literal is written as (not (exists ...)); the exported domain, run by the PPDDL
     simulator, gives every random state and primitive the rule set's successor distribution."""
-    from groundsym.ppddl.convert import rules_to_domain
+    from groundsym.ppddl.from_rules import rules_to_domain
     from groundsym.ppddl.simulate import Task
 
     rs, meta = read_rules(DATA / "nid_tower_derived.rules.json")
@@ -310,7 +311,7 @@ def test_derived_literals_export_to_ppddl_with_the_rule_set_semantics():
             covered += r is not None
     assert covered > 150
     # and read back: the same contexts, the derived literals and their definitions included
-    from groundsym.ppddl.convert import domain_to_rules
+    from groundsym.ppddl.to_rules import domain_to_rules
     from groundsym.ppddl.parser import parse_domain
 
     back = domain_to_rules(parse_domain(str(domain), "<export>"))

@@ -95,7 +95,7 @@ def test_bad_input_gives_one_line_and_status_2(learned, tmp_path, capsys, case):
 def test_a_ppddl_domain_is_scored_with_its_true_dynamics(tmp_path, capsys):
     """The reference blocks world is in the rule subset, so its PPDDL semantics (the simulator's)
     and its NID rules (domain_to_rules) are two independent ways to the same likelihood."""
-    from groundsym.ppddl.convert import domain_to_rules
+    from groundsym.ppddl.to_rules import domain_to_rules
     from groundsym.ppddl.parser import load
     from groundsym.rules.evaluate import score_ruleset
 

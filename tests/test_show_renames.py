@@ -4,8 +4,7 @@ fixture world's intended symbols through the command line)."""
 import pytest
 
 from groundsym.cli import main
-from groundsym.commands.show import suggested_names
-from groundsym.grounding import Match
+from groundsym.grounding import Match, suggested_names
 from groundsym.symbols import SymbolSet, save_symbols
 from groundsym.traces import write_traces
 from tests.test_loss import intended_symbols, kinematic_tower

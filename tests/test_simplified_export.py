@@ -16,14 +16,15 @@ from pathlib import Path
 
 import pytest
 
-from groundsym.commands.export_domain import DECIMALS, reward_effect, with_reward
+from groundsym.export import DECIMALS, reward_effect, with_reward
 from groundsym.logic import Atom, parse_atom, parse_literal
 from groundsym.modeldir import Model
 from groundsym.ppddl.ast import And, Not, Or, TRUE
-from groundsym.ppddl.convert import domain_to_rules, rules_to_domain
+from groundsym.ppddl.from_rules import RulesWriter, rules_to_domain
 from groundsym.ppddl.parser import parse_domain
 from groundsym.ppddl.simplify import FALSE, simplify
 from groundsym.ppddl.simulate import Task
+from groundsym.ppddl.to_rules import domain_to_rules
 from groundsym.reward import Feature, RewardModel, state_arrays
 from groundsym.rules.model import Outcome, Rule, RuleSet
 
@@ -91,12 +92,11 @@ def test_simplified_domain_has_the_raw_domains_distributions_and_rewards_on_ever
     on every action) against the raw domain's distributions and the reward model's exact reward
     (read in the state the action is taken in), on every state of a 3-object problem."""
     raw = rules_to_domain(RULES, PREDICATES, "raw", noise)
-    dropped: list[str] = []
     model = Model(Path("unused"), RULES, REWARD, {"predicates": PREDICATES})
-    text = str(with_reward(rules_to_domain(RULES, PREDICATES, "simple", noise, decimals=DECIMALS, simple=True,
-                                           dropped=dropped), reward_effect(model)))
+    domain, dropped = RulesWriter(RULES, noise, decimals=DECIMALS, simple=True).domain(PREDICATES, "simple")
+    text = str(with_reward(domain, reward_effect(model)))
     simple = parse_domain(text)
-    assert dropped == ["closeHandAround_r2"] and simple.action("closeHandAround_r2") is None
+    assert dropped == ("closeHandAround_r2",) and simple.action("closeHandAround_r2") is None
     assert "0.8765" in text and "0.00031" not in text and "9/10000" not in text   # rounded; two left out
     objects = ["o1", "o2", "o3"]
     a, b = Task(raw, objects), Task(simple, objects)

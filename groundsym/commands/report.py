@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import UserError
+from ..export import ExportOptions, build_export
 from ..fileio import atomic_write_text
 from ..modeldir import load_model
 from ..report.filmstrip import filmstrip_section, read_episode, read_frames
@@ -16,7 +17,6 @@ from ..report.sections import (against_name, domain_section, grounding_section, 
                                reward_section, rules_section, symbol_data, symbols_section)
 from ..traces import read_traces
 from ._common import nonneg_int, output_path, writable_output
-from .export_domain import build_export
 
 NAME = "report"
 HELP = "write a learned model as one self-contained HTML page (symbols, F1, rules, reward, domain, episode)"
@@ -55,8 +55,7 @@ def run(args: argparse.Namespace) -> int:
         model.symbols.check_features(against.feature_names, f"{args.against}: meta")
     if model.symbols is not None and model.traces is not None:
         model.symbols.check_features(model.traces.feature_names, f"{args.model / 'traces.json'}: meta")
-    export = build_export(model, argparse.Namespace(model=args.model, scene=None, goal=None, noise="no-change",
-                                                    name="learned"))
+    export = build_export(model, ExportOptions(), args.model)
     sections = [overview(model, export), symbols_section(model, symbol_data(model, against))]
     grounding = grounding_section(model, against, against_name(args.against))
     sections += [grounding] if grounding is not None else []

@@ -33,7 +33,8 @@ from ..errors import UserError
 from ..logic import Atom, Literal
 from .ast import (NO_EFFECT, Action, AndEffect, Domain, Effect, ForallEffect, Probabilistic, Problem, RewardEffect,
                   When)
-from .convert import requirements
+from .requirements import requirements
+from .rule_actions import primitive_of
 
 MODES = ("all-outcomes", "most-likely")
 _PROBABILISTIC_FLAGS = {":probabilistic-effects", ":rewards", ":mdp"}
@@ -125,8 +126,6 @@ def determinize(domain: Domain, problem: Problem | None, mode: str = "all-outcom
 def primitive_plan(domain: Domain, steps: list[Atom]) -> list[Atom]:
     """The robot primitives of a plan over determinised actions: outcome suffixes and deictic
     parameters dropped (``stack_r1_o2 a b c`` -> ``stack a b``)."""
-    from .convert import primitive_of
-
     out = []
     for s in steps:
         name = s.predicate

@@ -7,7 +7,7 @@ blocks combine as a product; the mass a ``probabilistic`` leaves unassigned mean
 deletes apply before adds; ``(increase (reward) n)`` adds to the step's reward.
 
 Robot primitives: a domain exported from NID rules names its actions ``<primitive>_r<k>`` and
-carries deictic references as extra parameters (see :mod:`groundsym.ppddl.convert`). A
+carries deictic references as extra parameters (see :mod:`groundsym.ppddl.from_rules`). A
 :class:`Task` maps every PPDDL action onto the primitive a robot would run, so simulated traces
 hold ``(openHandOver o2)`` rather than ``(openHandOver_r1 o2 o5)``. For ordinary domains the
 primitive is the action itself. A primitive with no applicable PPDDL action changes nothing.
@@ -27,9 +27,9 @@ from ..logic import Atom, Literal
 from ..symbolic_traces import SymbolicDataset, SymbolicTrace
 from .ast import (OBJECT, Action, And, AndEffect, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
                   Or, Probabilistic, Problem, RewardEffect, Typed, When)
-from .convert import primitive_of
 from .ground import (FALSE, NOTHING, Outcome, distinct_pairs, effect_literals, ground_effect, ground_formula,
                      ground_literals, has_when, is_a, product_of)
+from .rule_actions import primitive_of
 
 
 

@@ -13,11 +13,12 @@ from typing import Sequence
 
 import numpy as np
 
-from ..commands.export_domain import Export, predicate_comments, reward_terms, reward_words
-from ..commands.show import suggested_names, symbols_png
 from ..describe import describe
-from ..grounding import Match, match_symbols
+from ..export import Export, predicate_comments, reward_terms, reward_words
+from ..figures import symbols_png
+from ..grounding import Match, match_symbols, suggested_names
 from ..modeldir import Model
+from ..ppddl.rule_actions import rule_action_names
 from ..rules.model import Rule
 from ..symbols import dataset_arrays, share_true
 from ..traces import Dataset
@@ -146,12 +147,8 @@ def _match_row(m: Match) -> Sequence[str]:
 # ------------------------------------------------------------------------------ rules
 def rules_section(model: Model, export: Export) -> Section:
     covers = (model.meta.get("covers") or [None] * len(model.rules.rules))
-    count: dict[str, int] = {}
-    cards = []
-    for rule, cov in zip(model.rules.rules, covers):
-        count[rule.action.predicate] = count.get(rule.action.predicate, 0) + 1
-        name = f"{rule.action.predicate}_r{count[rule.action.predicate]}"
-        cards.append(_rule_card(rule, name, cov, name in export.dropped))
+    cards = [_rule_card(rule, name, cov, name in export.dropped)
+             for rule, name, cov in zip(model.rules.rules, rule_action_names(model.rules.rules), covers)]
     defaults = "".join(f"<li>{_code(name)}: no change {d.p_nochange:.3f}, noise {d.p_noise:.3g}</li>"
                        for name, d in model.rules.defaults)
     body = ("<p>A rule says what a primitive does where its context holds: each outcome's changes with "
