@@ -8,6 +8,8 @@ recall, and, for a unary symbol whose negation matches some relation better (it 
 the hand"), that relation too. A unary symbol grounds a relation when it matches it, or when its
 negation matches it with F1 >= :data:`NEGATION_F1` (:func:`grounded`): "not in the hand" is as
 good a symbol for planning as "in the hand", since the rules and the reward can use either.
+:func:`suggested_names` turns the matches into names for ``groundsym rename`` (``show --against``
+and the report print them).
 """
 
 from __future__ import annotations
@@ -70,7 +72,7 @@ def grounded(doc: Mapping[str, Any], good: float) -> dict[str, float]:
     return out
 
 
-def suggested_names(matches: list, good: float = 0.5) -> dict[str, str]:
+def suggested_names(matches: list[Match], good: float = 0.5) -> dict[str, str]:
     """Symbol -> the relation it matches (same argument order, F1 >= ``good``), or ``not-<relation>``
     when its negation matches better; a relation two symbols match goes to the better one."""
     best: dict[str, tuple[float, str]] = {}
