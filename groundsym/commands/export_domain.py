@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _export(model: Model, args: argparse.Namespace) -> int:
     """Build the export, write its files into ``--output`` and say what was written."""
-    ex = build_export(model, ExportOptions(args.scene, args.goal, args.noise, args.name), args.model)
+    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name)
+    ex = build_export(model, options, args.model)
     domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
                                                           ex.goal_note)
     out = Path(args.output)
