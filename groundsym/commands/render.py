@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from ..collect import collect_trace, trace_seeds
 from ..errors import UserError

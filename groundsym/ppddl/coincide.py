@@ -16,7 +16,7 @@ from typing import Iterator, Mapping, Sequence
 from ..logic import Literal
 from .ast import NO_EFFECT, TRUE, Action, AndEffect, Domain, Effect, ForallEffect, Probabilistic, Typed, When
 from .simplify import FALSE, simplify
-from .strips import _subst as substitute      # variables renamed in a formula, bound ones kept
+from .ground import substitute
 
 
 def partitions(items: Sequence[int]) -> Iterator[list[list[int]]]:

@@ -19,6 +19,21 @@ FALSE = Or(())                                               # the empty disjunc
 NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)       # the outcome that changes nothing
 
 
+def substitute(f: Formula, ren: Mapping[str, str]) -> Formula:
+    """``f`` with its free variables renamed by ``ren`` (a quantifier's own variables are kept);
+    unlike :func:`ground_formula`, nothing is decided or simplified."""
+    if isinstance(f, Atom):
+        return f.substitute(ren)
+    if isinstance(f, Not):
+        return Not(substitute(f.arg, ren))
+    if isinstance(f, (And, Or)):
+        return type(f)(tuple(substitute(g, ren) for g in f.args))
+    if isinstance(f, Imply):
+        return Imply(substitute(f.left, ren), substitute(f.right, ren))
+    inner = {k: v for k, v in ren.items() if k not in {p.name for p in f.params}}
+    return type(f)(f.params, substitute(f.body, inner))
+
+
 def ground_formula(f: Formula, b: Mapping[str, str]) -> Formula:
     """``f`` with ``b`` substituted and equalities between constants decided (True: ``(and)``,
     False: ``(or)``); quantifiers stay (their variables are not in ``b``)."""

@@ -23,9 +23,10 @@ from itertools import product
 from typing import Iterable
 
 from ..errors import UserError
-from ..logic import Atom, Literal, is_variable
-from .ast import (OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, Formula, Imply, Not, Or,
+from ..logic import Atom, Literal
+from .ast import (OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Forall, Formula, Imply, Not, Or,
                   Predicate, Problem, Typed)
+from .ground import substitute
 
 MAX_DISJUNCTS = 4096
 Term = frozenset          # frozenset[Literal]: one conjunction of ground literals
@@ -40,19 +41,6 @@ class GroundAction:
 
 
 # ------------------------------------------------------------------------------ DNF
-def _subst(f: Formula, ren: dict[str, str]) -> Formula:
-    if isinstance(f, Atom):
-        return f.substitute(ren)
-    if isinstance(f, Not):
-        return Not(_subst(f.arg, ren))
-    if isinstance(f, (And, Or)):
-        return type(f)(tuple(_subst(g, ren) for g in f.args))
-    if isinstance(f, Imply):
-        return Imply(_subst(f.left, ren), _subst(f.right, ren))
-    inner = {k: v for k, v in ren.items() if k not in {p.name for p in f.params}}
-    return type(f)(f.params, _subst(f.body, inner))
-
-
 def _minimal(terms: Iterable[Term]) -> list[Term]:
     """Terms without contradictions, and without those another term's literals imply."""
     ok = [t for t in set(terms) if not any(l.negate() in t for l in t)]
@@ -102,7 +90,7 @@ class _Grounder:
         if isinstance(f, (And, Or)):
             parts = [self.dnf(g, positive) for g in f.args]
         else:
-            parts = [self.dnf(_subst(f.body, b), positive) for b in self.bindings(f.params)]
+            parts = [self.dnf(substitute(f.body, b), positive) for b in self.bindings(f.params)]
         conjunctive = isinstance(f, (And, Forall)) == positive
         if conjunctive:
             out = [Term()]
@@ -132,7 +120,7 @@ def ground_actions(domain: Domain, problem: Problem) -> list[GroundAction]:
         for b in g.bindings(a.parameters):
             args = [b[p.name] for p in a.parameters]
             try:
-                terms = g.dnf(_subst(a.precondition, b))
+                terms = g.dnf(substitute(a.precondition, b))
             except OverflowError:
                 raise UserError(f"--strips: the precondition of {a.name} {' '.join(args)} expands to more than "
                                 f"{MAX_DISJUNCTS} alternatives; use the ADL domain.pddl") from None
