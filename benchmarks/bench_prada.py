@@ -254,7 +254,10 @@ def side_by_side(rev: str, repeats: int, cases: list) -> int:
 def import_before(tree: Path) -> Any:
     """PRADA of another checkout imported as ``prada_before``: the module ``planners/prada.py`` of
     a revision before the split, else the package ``planners/prada/`` (its modules become
-    ``prada_before.core`` and so on)."""
+    ``prada_before.core`` and so on). It runs on this tree's ``groundsym`` (both versions must share
+    one ``Atom`` class), so it must import the names it needs from there: a revision before
+    ``groundsym.options`` imports ``PlannerOption`` from ``groundsym.planner`` and is compared by
+    running this benchmark in a checkout of its own time."""
     import importlib.util
 
     single = tree / "planners" / "prada.py"
