@@ -4,8 +4,8 @@ A simulation (``--sim-opt``) and a planner (``--planner-opt``) both declare thei
 tuple of :class:`Option` (name, value parser, default, meaning) and read what the user typed with
 :func:`parse_options`; so an unknown name or a bad value gives the same one-line user error for
 both, naming the flag, the option and why the value was refused (docs/reliability.md). The value
-parsers shared by several owners (:func:`parse_bool`, :func:`positive`, :func:`unit_interval`,
-:func:`nonnegative`) live here too: their ``__name__`` is what the error says was expected.
+parsers shared by several owners (:func:`parse_bool`, :func:`one_of`, :func:`positive`,
+:func:`unit_interval`, :func:`nonnegative`) live here too: their ``__name__`` is what the error says was expected.
 """
 
 from __future__ import annotations
@@ -74,6 +74,17 @@ def parse_bool(text: str | bool) -> bool:
 
 
 parse_bool.__name__ = "bool"
+
+
+def one_of(*choices: str) -> Callable[[str], str]:
+    """A value that must be one of ``choices`` (a variant, a mode), returned as given; the error
+    names the choices (``expected max or top10``)."""
+    def parse(text: str) -> str:
+        if text not in choices:
+            raise ValueError("no such choice")
+        return text
+    parse.__name__ = " or ".join(choices) if len(choices) <= 2 else "one of " + ", ".join(choices)
+    return parse
 
 
 def unit_interval(text: str) -> float:

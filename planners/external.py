@@ -27,14 +27,8 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.options import Option, parse_options, positive
+from groundsym.options import Option, one_of, parse_options, positive
 from groundsym.planner import Decision, Observation, PlanningModel
-
-
-def _mode(text: str) -> str:
-    if text not in ("all-outcomes", "most-likely"):
-        raise ValueError("expected all-outcomes or most-likely")
-    return text
 
 
 class ExternalPlanner:
@@ -44,7 +38,7 @@ class ExternalPlanner:
     NEEDS = frozenset({"ppddl"})
     OPTIONS = (
         Option("engine", str, "fast-downward", "unified-planning engine (also: --planner external:NAME)"),
-        Option("determinize", _mode, "all-outcomes", "all-outcomes (FFR-a) or most-likely (FFR-s)"),
+        Option("determinize", one_of("all-outcomes", "most-likely"), "all-outcomes", "all-outcomes (FFR-a) or most-likely (FFR-s)"),
         Option("timeout", positive(float), 60.0, "seconds per planner call"),
     )
 

@@ -44,19 +44,13 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.options import Option, parse_options, positive
+from groundsym.options import Option, one_of, parse_options, positive
 from groundsym.planner import Decision, Observation, PlanningModel
 
 from .relaxation import HEURISTICS, INF, Relaxation, relaxed_goal_atoms
 
 _SHARED: "OrderedDict[tuple, Search]" = OrderedDict()
 _KEEP = 4          # search tables kept for sharing across episodes (most recently used)
-
-
-def _heuristic(text: str) -> str:
-    if text not in HEURISTICS:
-        raise ValueError(f"expected one of {', '.join(HEURISTICS)}")
-    return text
 
 
 def _flag(text: str) -> bool:
@@ -167,7 +161,7 @@ class LrtdpPlanner:
         Option("epsilon", positive(float), 1e-3, "residual below which a state's value has converged"),
         Option("dead_end_cost", positive(float), 500.0, "cost of a state the goal cannot be reached from"),
         Option("depth", positive(int, most=1_000_000), 1000, "longest trial, in steps"),
-        Option("heuristic", _heuristic, "hmax", "hmax (admissible) or hadd (informed, not admissible)"),
+        Option("heuristic", one_of(*HEURISTICS), "hmax", "hmax (admissible) or hadd (informed, not admissible)"),
         Option("share", _flag, "1", "1: keep the values across episodes of the same problem"),
     )
 

@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from groundsym.logic import Atom
-from groundsym.options import Option, nonnegative, parse_options, positive, unit_interval
+from groundsym.options import Option, nonnegative, one_of, parse_options, positive, unit_interval
 from groundsym.planner import Decision, Observation, PlanningModel
 from groundsym.rules.model import with_derived
 
@@ -22,23 +22,11 @@ from .grounding import ground_rules
 from .rewards import RewardFn, goal_reward, model_reward
 
 
-def _variant(text: str) -> str:
-    if text not in ("prada", "a-prada"):
-        raise ValueError("expected prada or a-prada")
-    return text
-
-
 def _retries(text: str) -> int:
     value = int(text)
     if value < 0:
         raise ValueError("expected an integer >= 0")
     return value
-
-
-def _choice(text: str) -> str:
-    if text not in ("max", "top10"):
-        raise ValueError("expected max or top10")
-    return text
 
 
 class PradaPlanner:
@@ -53,8 +41,8 @@ class PradaPlanner:
                "e.g. the tower's 0.8; 0.95 as libPRADA on a PPDDL domain)"),
         Option("noise_softener", unit_interval, 0.2, "scales how much a rule's noise outcome "
                "spreads over changeable atoms (libPRADA demos: 0.2)"),
-        Option("variant", _variant, "prada", "prada, or a-prada (shorten the best sequence)"),
-        Option("choice", _choice, "max", "max: first action of the best sequence; top10: the "
+        Option("variant", one_of("prada", "a-prada"), "prada", "prada, or a-prada (shorten the best sequence)"),
+        Option("choice", one_of("max", "top10"), "max", "max: first action of the best sequence; top10: the "
                "first action whose 10 best sequences score highest on average"),
         Option("rule_min_prob", unit_interval, RULE_MIN_PROB, "a rule whose context holds with a "
                "smaller probability is taken not to apply (libPRADA: 0.03)"),
