@@ -15,8 +15,8 @@ The model: ``--model DIR`` (a learned model directory), or else one built here f
 traces of the tower cell abstracted with its ground-truth ``inhand`` and ``on`` (what a good
 learned unary and binary symbol are), with rules and reward learned as ``groundsym learn`` does.
 
-``--before REV``: side by side with ``planners/prada.py`` as it was at commit REV (checked out in a
-temporary git worktree and imported under another name), on the tower model and on IPPC 2008
+``--before REV``: side by side with PRADA (``planners/prada/``, or ``planners/prada.py`` before the
+split) as it was at commit REV (checked out in a temporary git worktree and imported under another name), on the tower model and on IPPC 2008
 triangle-tireworld p03 (its true rules): decision times alternate between the two versions in one
 run, and the rule tables' memory is reported for each.
 """
@@ -36,6 +36,7 @@ import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -43,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import planners.prada as prada  # noqa: E402
+import planners.prada.core as prada_core  # noqa: E402
 from groundsym.planner import Observation, PlanningModel  # noqa: E402
 
 
@@ -137,7 +139,7 @@ def main() -> int:
     ap.add_argument("--model", help="a learned model directory (default: build one from the tower sim)")
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--before", help="a git revision: compare with planners/prada.py at that commit")
+    ap.add_argument("--before", help="a git revision: compare with PRADA at that commit")
     ap.add_argument("--cli-path-child", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.cli_path_child:
@@ -174,10 +176,10 @@ def measure(args: argparse.Namespace, pm: PlanningModel, state: frozenset, objec
     print(f"one decision, horizon 4, 500 samples: median {dec * 1e3:.1f} ms over {args.repeats} "
           f"(min {min(times) * 1e3:.1f}, max {max(times) * 1e3:.1f}); target < 1000 ms")
     timer = Timer()
-    timer.wrap(prada, "rule_probabilities", "inference")
-    timer.wrap(prada, "transition", "inference")
-    timer.wrap(prada, "action_weights", "sampling")
-    timer.wrap(prada, "_sample_rows", "sampling")
+    timer.wrap(prada_core, "rule_probabilities", "inference")      # the names PradaCore calls
+    timer.wrap(prada_core, "transition", "inference")
+    timer.wrap(prada_core, "action_weights", "sampling")
+    timer.wrap(prada_core, "sample_rows", "sampling")
     reward = core.reward
     core.reward = lambda B: _timed(timer, "reward", reward, B)
     t = time.perf_counter()
@@ -220,17 +222,13 @@ def table_bytes(g) -> int:
 
 
 def side_by_side(rev: str, repeats: int, cases: list) -> int:
-    import importlib.util
     import subprocess
 
     wt = Path(tempfile.mkdtemp(prefix="groundsym-before-")) / "tree"
     subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(wt), rev], check=True,
                    capture_output=True)
     try:
-        spec = importlib.util.spec_from_file_location("prada_before", wt / "planners" / "prada.py")
-        before = importlib.util.module_from_spec(spec)
-        sys.modules["prada_before"] = before      # dataclasses look their module up by name
-        spec.loader.exec_module(before)
+        before = import_before(wt)
         print(f"{'case':24s} {'version':8s} {'decision ms (median)':>21s} {'rule tables MB':>15s}")
         for name, pm, state, objects in cases:
             obs = Observation(objects, (), state)
@@ -251,6 +249,28 @@ def side_by_side(rev: str, repeats: int, cases: list) -> int:
     finally:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], capture_output=True)
     return 0
+
+
+def import_before(tree: Path) -> Any:
+    """PRADA of another checkout imported as ``prada_before``: the module ``planners/prada.py`` of
+    a revision before the split, else the package ``planners/prada/`` (its modules become
+    ``prada_before.core`` and so on). It runs on this tree's ``groundsym`` (both versions must share
+    one ``Atom`` class), so it must import the names it needs from there: a revision before
+    ``groundsym.options`` imports ``PlannerOption`` from ``groundsym.planner`` and is compared by
+    running this benchmark in a checkout of its own time."""
+    import importlib.util
+
+    single = tree / "planners" / "prada.py"
+    if single.exists():
+        spec = importlib.util.spec_from_file_location("prada_before", single)
+    else:
+        package = tree / "planners" / "prada"
+        spec = importlib.util.spec_from_file_location("prada_before", package / "__init__.py",
+                                                      submodule_search_locations=[str(package)])
+    before = importlib.util.module_from_spec(spec)
+    sys.modules["prada_before"] = before      # dataclasses look their module up by name
+    spec.loader.exec_module(before)
+    return before
 
 
 def _timed(timer: Timer, label: str, fn, *a):

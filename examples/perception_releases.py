@@ -26,7 +26,7 @@ from groundsym.fileio import atomic_write_json  # noqa: E402
 from groundsym.modeldir import load_model  # noqa: E402
 from groundsym.planner import make_planner  # noqa: E402
 from groundsym.registry import get_sim_class, make_sim  # noqa: E402
-from groundsym.sim import split_key_values  # noqa: E402
+from groundsym.options import split_key_values  # noqa: E402
 
 
 class CountingEnv(SimEnv):

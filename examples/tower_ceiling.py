@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from groundsym.fileio import atomic_write_json  # noqa: E402
 from groundsym.logic import Atom  # noqa: E402
-from groundsym.sim import split_key_values  # noqa: E402
+from groundsym.options import split_key_values  # noqa: E402
 from sims.tower import EPISODE_LENGTH, GAMMA, TowerSim, optimal_episode_value  # noqa: E402
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from groundsym.logic import Atom  # noqa: E402
-from groundsym.sim import split_key_values  # noqa: E402
+from groundsym.options import split_key_values  # noqa: E402
 from sims.tower import EPISODE_LENGTH, GAMMA, TowerSim, resolve_options  # noqa: E402
 from sims.tower_optimum import best_plan, ground_plan  # noqa: E402
 

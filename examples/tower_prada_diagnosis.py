@@ -48,7 +48,7 @@ from groundsym.reward import fit_reward  # noqa: E402
 from groundsym.rules.learner import LearnOptions, examples_from_dataset, learn_rules  # noqa: E402
 from groundsym.planner import PlanningModel, make_planner  # noqa: E402
 from groundsym.registry import make_sim  # noqa: E402
-from groundsym.sim import split_key_values  # noqa: E402
+from groundsym.options import split_key_values  # noqa: E402
 from groundsym.traces import Dataset, read_traces, write_traces  # noqa: E402
 from rule_recovery import parse_config  # noqa: E402
 from sims.tower import optimal_episode_value  # noqa: E402

@@ -236,12 +236,11 @@ def unit_path(out: Path, n_symbol: int, run: int) -> Path:
 def validate(cfg: EvalConfig) -> None:
     """Every option a unit will use, checked before the results folder is touched: a refused
     command must leave no config.json behind that would then refuse the corrected one."""
-    from .planner import parse_planner_options
+    from .options import parse_options
     from .registry import get_planner_class, get_sim_class
-    from .sim import parse_options
 
     sim_cls = get_sim_class(cfg.sim)
-    parse_options(cfg.sim, sim_cls.OPTIONS, dict(cfg.sim_options))
+    parse_options("--sim-opt", "sim", cfg.sim, sim_cls.OPTIONS, dict(cfg.sim_options))
     truth = dict(getattr(sim_cls, "truth_predicates", {}) or {})
     unknown = [p for p in cfg.truth_symbols if p not in truth]
     if unknown:
@@ -249,7 +248,7 @@ def validate(cfg: EvalConfig) -> None:
                         f"({', '.join(sorted(truth))})")
     for method in cfg.methods:
         given = dict(cfg.planner_options.get(method, {}))
-        parse_planner_options(method, getattr(get_planner_class(method), "OPTIONS", ()), given)
+        parse_options("--planner-opt", "planner", method, getattr(get_planner_class(method), "OPTIONS", ()), given)
     for method in cfg.planner_options:
         if method not in cfg.methods:
             raise UserError(f"--planner-opt {method}:...: {method} is not among --methods")

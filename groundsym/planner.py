@@ -5,7 +5,9 @@ given: symbols, NID rules, a reward model, training traces, a PPDDL domain and p
 ``--planner-opt`` strings and a seed. Each step it gets an :class:`Observation` and returns a
 :class:`Decision`. Like unified-planning's *problem kind*, a planner class declares in ``NEEDS``
 which parts of the model it uses, so the CLI can refuse a model that lacks them with one clear line
-instead of failing deep inside a planner.
+instead of failing deep inside a planner. Its ``OPTIONS`` are :class:`groundsym.options.Option`
+values read with :func:`groundsym.options.parse_options`, the type and parser of the simulations'
+options too.
 
 The core never imports ``planners``; it finds planner classes by name through
 :func:`groundsym.registry.get_planner_class`.
@@ -14,11 +16,11 @@ The core never imports ``planners``; it finds planner classes by name through
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Mapping, Protocol, runtime_checkable
+from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 from .errors import UserError
 from .logic import Atom, Literal
-from .sim import SimOption as PlannerOption  # same shape: name, kind, default, doc
+from .options import Option
 from .world import Scene
 
 # What a planner may need from the model; the keys of PlanningModel that must not be None.
@@ -108,7 +110,7 @@ class Planner(Protocol):
 
     name: ClassVar[str]
     NEEDS: ClassVar[frozenset[str]]
-    OPTIONS: ClassVar[tuple[PlannerOption, ...]]
+    OPTIONS: ClassVar[tuple[Option, ...]]
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int) -> None: ...
 
@@ -117,23 +119,6 @@ class Planner(Protocol):
 
     def observe(self, action: Atom, observation: Observation) -> None:
         """Told what happened after the chosen action (replanning planners use it)."""
-
-
-def parse_planner_options(planner: str, spec: tuple[PlannerOption, ...],
-                          given: Mapping[str, Any]) -> dict[str, Any]:
-    """Typed options from ``--planner-opt`` strings; unknown names and bad values are user errors."""
-    known = {o.name: o for o in spec}
-    out = {o.name: o.default for o in spec}
-    for key, raw in given.items():
-        if key not in known:
-            raise UserError(f"--planner-opt {key}: unknown option for planner {planner!r} "
-                            f"(known: {', '.join(sorted(known)) or 'none'})")
-        try:
-            out[key] = known[key].kind(raw)
-        except (TypeError, ValueError) as exc:
-            kind = getattr(known[key].kind, "__name__", "a value")
-            raise UserError(f"--planner-opt {key}={raw}: expected {kind} ({exc})") from None
-    return out
 
 
 def check_needs(planner: str, needs: frozenset[str], model: PlanningModel) -> None:
@@ -154,25 +139,3 @@ def make_planner(name: str, model: PlanningModel, options: Mapping[str, Any], se
     if ":" in name:  # ``external:fast-downward``: the suffix is the planner's ``engine`` option
         opts.setdefault("engine", name.split(":", 1)[1])
     return cls(model, opts, seed)
-
-
-def unit_interval(text: str) -> float:
-    """A probability-like option value in [0, 1]."""
-    v = float(text)
-    if not 0.0 <= v <= 1.0:
-        raise ValueError("must be between 0 and 1")
-    return v
-
-
-def positive(kind: Callable[[str], Any], most: float | None = None) -> Callable[[str], Any]:
-    """Wrap ``int``/``float`` so values below 1 (ints) or at most 0 (floats) are refused, and,
-    with ``most``, values above it (a size that would allocate terabytes is a typo, not a plan)."""
-    def parse(text: str) -> Any:
-        v = kind(text)
-        if (kind is int and v < 1) or (kind is not int and v <= 0):
-            raise ValueError("must be positive")
-        if most is not None and v > most:
-            raise ValueError(f"at most {most:g}")
-        return v
-    parse.__name__ = f"positive {kind.__name__}"
-    return parse

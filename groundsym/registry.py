@@ -3,6 +3,10 @@
 Built-in ones are listed here; more come from the entry-point groups ``groundsym.sims`` and
 ``groundsym.planners`` of any installed distribution, so a user can plug in their own robot or
 planner without touching this package. The core never imports ``sims`` or ``planners`` directly.
+
+:data:`BUILTIN_SIMS` and :data:`BUILTIN_PLANNERS` are the one list of what this repository
+provides: they work from a checkout that is not installed, and pyproject.toml registers the same
+names as entry points for an installed one (tests/test_registry.py fails when the two differ).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ BUILTIN_PLANNERS = {
     "symbolic-nn": "planners.nn:SymbolicNNPlanner",
     "continuous-nn": "planners.nn:ContinuousNNPlanner",
     "external": "planners.external:ExternalPlanner",
+    "lrtdp": "planners.lrtdp:LrtdpPlanner",
 }
 
 

@@ -1,35 +1,25 @@
-"""The Sim protocol every simulation implements, and its typed options.
+"""The Sim protocol every simulation implements, and what a sim's options and cell record.
 
 A simulation owns a physical world and exposes it the way the learner sees it: the scene's objects
 with their geometric features and reward, the primitives it can run, and, for evaluation only,
 ground-truth atoms. ``sims/tower.py`` and ``sims/bowling.py`` implement it; users can plug in their
-own through the ``groundsym.sims`` entry-point group.
+own through the ``groundsym.sims`` entry-point group. A sim declares its ``--sim-opt`` options as
+:class:`groundsym.options.Option` values, the same type the planners' options have.
 """
 
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, ClassVar, Mapping, Protocol, runtime_checkable
+from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 from .errors import UserError
 from .logic import Atom
+from .options import Option, parse_options
 from .world import Scene
 
 
-@dataclass(frozen=True)
-class SimOption:
-    """One ``--sim-opt key=value`` option: its type, default and meaning."""
-
-    name: str
-    kind: Callable[[str], Any]
-    default: Any
-    doc: str
-    recorded_at_default: bool = True     # False: an option added later, left out of files at its default
-
-
-def recorded_options(spec: tuple[SimOption, ...], options: Mapping[str, Any]) -> dict[str, Any]:
+def recorded_options(spec: tuple[Option, ...], options: Mapping[str, Any]) -> dict[str, Any]:
     """The options a traces file or a result records: all of them, except later additions at their
     default (so files and results made before such an option existed keep their identity)."""
     skip = {o.name for o in spec if not o.recorded_at_default and options.get(o.name) == o.default}
@@ -44,49 +34,6 @@ def feature_names_for(cls: Any, options: Mapping[str, Any]) -> tuple[str, ...]:
     return tuple(fn(options)) if fn is not None else tuple(cls.feature_names)
 
 
-def parse_options(sim_name: str, spec: tuple[SimOption, ...], given: Mapping[str, Any]) -> dict[str, Any]:
-    """Typed options from strings (or values) given by the user; unknown names are user errors."""
-    known = {o.name: o for o in spec}
-    out = {o.name: o.default for o in spec}
-    for key, raw in given.items():
-        if key not in known:
-            raise UserError(f"--sim-opt {key}: unknown option for sim {sim_name!r} "
-                            f"(known: {', '.join(sorted(known)) or 'none'})")
-        opt = known[key]
-        try:
-            val = opt.kind(raw) if isinstance(raw, str) else opt.kind(raw)
-        except (TypeError, ValueError):
-            raise UserError(f"--sim-opt {key}={raw}: expected {getattr(opt.kind, '__name__', 'a value')}") from None
-        out[key] = val
-    return out
-
-
-def parse_bool(text: str | bool) -> bool:
-    if isinstance(text, bool):
-        return text
-    t = str(text).strip().lower()
-    if t in ("1", "true", "yes", "on"):
-        return True
-    if t in ("0", "false", "no", "off"):
-        return False
-    raise ValueError(text)
-
-
-parse_bool.__name__ = "bool"
-
-
-def split_key_values(items: list[str] | None, flag: str) -> dict[str, str]:
-    """``["a=1", "b=x"]`` -> ``{"a": "1", "b": "x"}``; malformed items are user errors."""
-    out: dict[str, str] = {}
-    for item in items or []:
-        for part in item.split():
-            if "=" not in part:
-                raise UserError(f"{flag} {part}: expected key=value")
-            k, v = part.split("=", 1)
-            out[k.strip()] = v.strip()
-    return out
-
-
 @runtime_checkable
 class Sim(Protocol):
     """What the core needs from a simulation.
@@ -96,7 +43,7 @@ class Sim(Protocol):
     """
 
     name: ClassVar[str]
-    OPTIONS: ClassVar[tuple[SimOption, ...]]
+    OPTIONS: ClassVar[tuple[Option, ...]]
     feature_names: tuple[str, ...]         # names of the n unary feature dimensions
     primitives: dict[str, int]             # primitive name -> arity
     truth_predicates: dict[str, int]       # ground-truth relation name -> arity (evaluation only)
@@ -137,7 +84,7 @@ def cell_identity(name: str, given: Mapping[str, Any]) -> dict[str, Any]:
 
     cls = get_sim_class(name)
     spec = getattr(cls, "OPTIONS", None)
-    options = recorded_options(spec, parse_options(name, spec, given)) if spec else dict(given)
+    options = recorded_options(spec, parse_options("--sim-opt", "sim", name, spec, given)) if spec else dict(given)
     return {"options": {k: options[k] for k in sorted(options)}, **cell_meta(cls)}
 
 

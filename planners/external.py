@@ -27,13 +27,8 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.planner import Decision, Observation, PlannerOption, PlanningModel, parse_planner_options, positive
-
-
-def _mode(text: str) -> str:
-    if text not in ("all-outcomes", "most-likely"):
-        raise ValueError("expected all-outcomes or most-likely")
-    return text
+from groundsym.options import Option, one_of, parse_options, positive
+from groundsym.planner import Decision, Observation, PlanningModel
 
 
 class ExternalPlanner:
@@ -42,16 +37,16 @@ class ExternalPlanner:
     name = "external"
     NEEDS = frozenset({"ppddl"})
     OPTIONS = (
-        PlannerOption("engine", str, "fast-downward", "unified-planning engine (also: --planner external:NAME)"),
-        PlannerOption("determinize", _mode, "all-outcomes", "all-outcomes (FFR-a) or most-likely (FFR-s)"),
-        PlannerOption("timeout", positive(float), 60.0, "seconds per planner call"),
+        Option("engine", str, "fast-downward", "unified-planning engine (also: --planner external:NAME)"),
+        Option("determinize", one_of("all-outcomes", "most-likely"), "all-outcomes", "all-outcomes (FFR-a) or most-likely (FFR-s)"),
+        Option("timeout", positive(float), 60.0, "seconds per planner call"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
         from groundsym.ppddl.determinize import Solver, determinize
         from groundsym.ppddl.simulate import Task
 
-        self.opts = parse_planner_options(self.name, self.OPTIONS, options)
+        self.opts = parse_options("--planner-opt", "planner", self.name, self.OPTIONS, options)
         domain, problem = model.ppddl
         if problem is None or problem.goal is None:
             raise UserError("--planner external: the problem has no goal to plan for")

@@ -44,18 +44,13 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.planner import Decision, Observation, PlannerOption, PlanningModel, parse_planner_options, positive
+from groundsym.options import Option, one_of, parse_options, positive
+from groundsym.planner import Decision, Observation, PlanningModel
 
 from .relaxation import HEURISTICS, INF, Relaxation, relaxed_goal_atoms
 
 _SHARED: "OrderedDict[tuple, Search]" = OrderedDict()
 _KEEP = 4          # search tables kept for sharing across episodes (most recently used)
-
-
-def _heuristic(text: str) -> str:
-    if text not in HEURISTICS:
-        raise ValueError(f"expected one of {', '.join(HEURISTICS)}")
-    return text
 
 
 def _flag(text: str) -> bool:
@@ -161,19 +156,19 @@ class LrtdpPlanner:
     name = "lrtdp"
     NEEDS = frozenset({"ppddl"})
     OPTIONS = (
-        PlannerOption("trials", positive(int, most=10_000_000), 10_000, "most trials per decision"),
-        PlannerOption("seconds", positive(float), 10.0, "most seconds of trials per decision"),
-        PlannerOption("epsilon", positive(float), 1e-3, "residual below which a state's value has converged"),
-        PlannerOption("dead_end_cost", positive(float), 500.0, "cost of a state the goal cannot be reached from"),
-        PlannerOption("depth", positive(int, most=1_000_000), 1000, "longest trial, in steps"),
-        PlannerOption("heuristic", _heuristic, "hmax", "hmax (admissible) or hadd (informed, not admissible)"),
-        PlannerOption("share", _flag, "1", "1: keep the values across episodes of the same problem"),
+        Option("trials", positive(int, most=10_000_000), 10_000, "most trials per decision"),
+        Option("seconds", positive(float), 10.0, "most seconds of trials per decision"),
+        Option("epsilon", positive(float), 1e-3, "residual below which a state's value has converged"),
+        Option("dead_end_cost", positive(float), 500.0, "cost of a state the goal cannot be reached from"),
+        Option("depth", positive(int, most=1_000_000), 1000, "longest trial, in steps"),
+        Option("heuristic", one_of(*HEURISTICS), "hmax", "hmax (admissible) or hadd (informed, not admissible)"),
+        Option("share", _flag, "1", "1: keep the values across episodes of the same problem"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
         from groundsym.ppddl.simulate import Task
 
-        self.opts = parse_planner_options(self.name, self.OPTIONS, options)
+        self.opts = parse_options("--planner-opt", "planner", self.name, self.OPTIONS, options)
         domain, problem = model.ppddl
         if problem is None or problem.goal is None:
             raise UserError("--planner lrtdp: the problem has no goal to plan for")

@@ -27,7 +27,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from groundsym.logic import Atom
-from groundsym.planner import Decision, Observation, PlannerOption, PlanningModel, parse_planner_options, positive
+from groundsym.options import Option, parse_options, positive
+from groundsym.planner import Decision, Observation, PlanningModel
 from groundsym.relational import Neighbours, nearest, scene_distance, state_distance
 
 DEPTH = 4        # d = 0..3
@@ -85,13 +86,13 @@ def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.G
 
 
 class _NNPlanner:
-    OPTIONS = (PlannerOption("depth", positive(int, most=1000), DEPTH, "rewards summed into a state's value (paper: 4)"),
-               PlannerOption("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"),
-               PlannerOption("k", positive(int), 3, "closest training states that compete by value "
-                             "(ties with the k-th included)"))
+    OPTIONS = (Option("depth", positive(int, most=1000), DEPTH, "rewards summed into a state's value (paper: 4)"),
+               Option("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"),
+               Option("k", positive(int), 3, "closest training states that compete by value "
+                      "(ties with the k-th included)"))
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
-        self.opts = parse_planner_options(self.name, self.OPTIONS, options)
+        self.opts = parse_options("--planner-opt", "planner", self.name, self.OPTIONS, options)
         self.rng = np.random.default_rng(seed)
         self.memory = self._memory(model)
         if not self.memory.actions:

@@ -6,7 +6,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from groundsym.planner import Decision, Observation, PlanningModel, parse_planner_options
+from groundsym.options import parse_options
+from groundsym.planner import Decision, Observation, PlanningModel
 
 
 class RandomPlanner:
@@ -17,7 +18,7 @@ class RandomPlanner:
     OPTIONS = ()
 
     def __init__(self, model: PlanningModel | None, options: Mapping[str, Any], seed: int):
-        parse_planner_options(self.name, self.OPTIONS, options)
+        parse_options("--planner-opt", "planner", self.name, self.OPTIONS, options)
         self.rng = np.random.default_rng(seed)
 
     def choose(self, observation: Observation) -> Decision:

@@ -32,7 +32,7 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.sim import SimOption, parse_bool, parse_options
+from groundsym.options import Option, parse_bool, parse_options
 from groundsym.world import Scene
 
 from .bowling_world import PIN_COM_Z, PIN_HEIGHT, PIN_SPACING, ROW_DEPTH, Alley, rack_positions, save_png
@@ -63,19 +63,19 @@ class BowlingSim:
     """Ten-pin bowling on a 0.656 scale alley in pybullet (see the module docstring)."""
 
     name: ClassVar[str] = "bowling"
-    OPTIONS: ClassVar[tuple[SimOption, ...]] = (
-        SimOption("pins", int, 10, "number of pins: 10 is the full rack; fewer stand on a random subset of "
-                                   "the 10 spots, drawn per episode (the paper's symbol data uses 5)"),
-        SimOption("spots", _spot_list, (), "fixed spots instead of a random subset, e.g. 1,5,7,10 "
-                                           "(bowling numbers: 1 head pin, 7-10 back row)"),
-        SimOption("shuffle_ids", parse_bool, True, "name the pins p1..pM in a random order per episode, so an "
-                                                  "id says nothing about a pin's spot (false: in spot order)"),
-        SimOption("noise", float, 0.01, "standard deviation in metres of the ball's lateral start offset"),
-        SimOption("speed", float, 6.0, "mean ball speed in m/s (regulation 8 m/s, Froude-scaled)"),
-        SimOption("speed_noise", float, 0.05, "relative standard deviation of the ball's speed"),
-        SimOption("timestep", float, 1 / 240, "physics time step in seconds"),
-        SimOption("max_time", float, 6.0, "longest simulated time of one throw in seconds; a throw ends "
-                                          "earlier, as soon as everything has settled"),
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("pins", int, 10, "number of pins: 10 is the full rack; fewer stand on a random subset of "
+                                "the 10 spots, drawn per episode (the paper's symbol data uses 5)"),
+        Option("spots", _spot_list, (), "fixed spots instead of a random subset, e.g. 1,5,7,10 "
+                                        "(bowling numbers: 1 head pin, 7-10 back row)"),
+        Option("shuffle_ids", parse_bool, True, "name the pins p1..pM in a random order per episode, so an "
+                                               "id says nothing about a pin's spot (false: in spot order)"),
+        Option("noise", float, 0.01, "standard deviation in metres of the ball's lateral start offset"),
+        Option("speed", float, 6.0, "mean ball speed in m/s (regulation 8 m/s, Froude-scaled)"),
+        Option("speed_noise", float, 0.05, "relative standard deviation of the ball's speed"),
+        Option("timestep", float, 1 / 240, "physics time step in seconds"),
+        Option("max_time", float, 6.0, "longest simulated time of one throw in seconds; a throw ends "
+                                       "earlier, as soon as everything has settled"),
     )
     feature_names: ClassVar[tuple[str, ...]] = ("x", "y", "z", "ux", "uy", "uz")
     primitives: ClassVar[dict[str, int]] = {"throwAtCenter": 1, "throwRightOfCenter": 1}
@@ -87,7 +87,7 @@ class BowlingSim:
     episode_score: ClassVar[str] = "final"
 
     def __init__(self, **options: Any):
-        opts = parse_options(self.name, self.OPTIONS, options)
+        opts = parse_options("--sim-opt", "sim", self.name, self.OPTIONS, options)
         self.options = _validated(opts, pins_given="pins" in options)
         self.alley = Alley(timestep=self.options["timestep"])
         self.rng = np.random.default_rng(0)

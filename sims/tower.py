@@ -25,7 +25,8 @@ from groundsym.errors import UserError
 from groundsym.fileio import atomic_write_bytes
 from groundsym.logic import Atom
 from groundsym.pointcloud import FEATURE_NAMES, MIN_POINTS, PAIR_FEATURE_NAMES, features_from_clouds, mean_differences
-from groundsym.sim import SimOption, parse_options, recorded_options
+from groundsym.options import Option, parse_options
+from groundsym.sim import recorded_options
 from groundsym.world import Scene
 
 from .camera_picture import write_camera_png
@@ -43,25 +44,25 @@ ON_TABLE_TOL = 0.002               # a lowest point under 2 mm counts as lying o
 CONTACT_UP = 0.7                   # a contact whose normal has z above this is "resting on"
 CAMERA_STREAM = 0x63616d           # second word of the camera's seed: [reset seed, this]
 
-OPTIONS: tuple[SimOption, ...] = (
-    SimOption("cubes", int, 7, "number of cubes"),
-    SimOption("big", int, None, "how many of the cubes are big (default: 3/7 of them, rounded: 3 of 7)"),
-    SimOption("balls", int, 0, "number of balls"),
-    SimOption("cans", int, 0, "number of cans (upright cylinders, as tall as wide; they count in the reward as cubes do)",
-              recorded_at_default=False),
-    SimOption("noise", float, 0.0075, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target "
-              "(default chosen from examples/tower_reliability.py, docs/tower.md)"),
-    SimOption("small_size", float, 0.04, "edge of a small cube (m)"),
-    SimOption("big_size", float, 0.05, "edge of a big cube (m)"),
-    SimOption("ball_size", float, 0.045, "diameter of a ball (m)"),
-    SimOption("can_size", float, 0.042, "diameter and height of a can (m)", recorded_at_default=False),
-    SimOption("features", str, "pose", "what the learner sees of each object: pose (x, y, z, size from the simulator) "
-              "or pointcloud (mean and shape of the object's points seen by the depth camera, docs/perception.md)",
-              recorded_at_default=False),
-    SimOption("depth_noise", float, 0.0, "depth camera: std (m) of the depth noise at 1 m depth, growing with "
-              "depth squared (features=pointcloud)", recorded_at_default=False),
-    SimOption("depth_dropout", float, 0.0, "depth camera: probability that a pixel returns no depth "
-              "(features=pointcloud)", recorded_at_default=False),
+OPTIONS: tuple[Option, ...] = (
+    Option("cubes", int, 7, "number of cubes"),
+    Option("big", int, None, "how many of the cubes are big (default: 3/7 of them, rounded: 3 of 7)"),
+    Option("balls", int, 0, "number of balls"),
+    Option("cans", int, 0, "number of cans (upright cylinders, as tall as wide; they count in the reward as cubes do)",
+           recorded_at_default=False),
+    Option("noise", float, 0.0075, "motor noise: std (m) of the Gaussian added to each axis of a primitive's target "
+           "(default chosen from examples/tower_reliability.py, docs/tower.md)"),
+    Option("small_size", float, 0.04, "edge of a small cube (m)"),
+    Option("big_size", float, 0.05, "edge of a big cube (m)"),
+    Option("ball_size", float, 0.045, "diameter of a ball (m)"),
+    Option("can_size", float, 0.042, "diameter and height of a can (m)", recorded_at_default=False),
+    Option("features", str, "pose", "what the learner sees of each object: pose (x, y, z, size from the simulator) "
+           "or pointcloud (mean and shape of the object's points seen by the depth camera, docs/perception.md)",
+           recorded_at_default=False),
+    Option("depth_noise", float, 0.0, "depth camera: std (m) of the depth noise at 1 m depth, growing with "
+           "depth squared (features=pointcloud)", recorded_at_default=False),
+    Option("depth_dropout", float, 0.0, "depth camera: probability that a pixel returns no depth "
+           "(features=pointcloud)", recorded_at_default=False),
 )
 FEATURE_SPACES = ("pose", "pointcloud")
 POSE_FEATURES = ("x", "y", "z", "size")
@@ -69,7 +70,7 @@ POSE_FEATURES = ("x", "y", "z", "size")
 
 def resolve_options(given: dict[str, Any]) -> dict[str, Any]:
     """Typed, checked options with defaults filled in (``big`` follows ``cubes`` unless given)."""
-    opts = parse_options(TowerSim.name, OPTIONS, given)
+    opts = parse_options("--sim-opt", "sim", TowerSim.name, OPTIONS, given)
     if opts["big"] is None:
         opts["big"] = int(round(opts["cubes"] * 3 / 7))
     _check(opts)
@@ -117,7 +118,7 @@ class TowerSim:
     """The tower cell; ``TowerSim(cubes=7, noise="0.0075")`` takes option values or strings."""
 
     name: ClassVar[str] = "tower"
-    OPTIONS: ClassVar[tuple[SimOption, ...]] = OPTIONS
+    OPTIONS: ClassVar[tuple[Option, ...]] = OPTIONS
     # 2: converged IK, straight Cartesian moves, rigid grasps, guards on every arm link (issue 13)
     CELL_VERSION: ClassVar[int] = 2
     feature_names = POSE_FEATURES                 # an instance's own: see features_for
@@ -128,7 +129,7 @@ class TowerSim:
 
     def __init__(self, **options: Any) -> None:
         opts = resolve_options(options)
-        self.options = recorded_options(OPTIONS, opts)       # what traces record (see SimOption)
+        self.options = recorded_options(OPTIONS, opts)       # what traces record (see Option.recorded_at_default)
         self.resolved = opts                                 # every option, defaults filled in
         self.objects = tuple(f"o{i + 1}" for i in range(opts["cubes"] + opts["balls"] + opts["cans"]))
         self.world = TowerWorld()

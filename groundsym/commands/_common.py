@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import output_target
-from ..sim import split_key_values
+from ..options import split_key_values
 
 
 def positive_int(text: str) -> int:

@@ -13,7 +13,8 @@ from ..experiment import EvalConfig, check_config, evaluate, markdown_table, met
 from ..provenance import provenance
 from ..registry import get_sim_class, planner_names
 from ..fileio import read_json
-from ..sim import parse_options, split_key_values, warn_if_older_cell
+from ..options import parse_options, split_key_values
+from ..sim import warn_if_older_cell
 from ._common import add_sim_args, nonneg_int, positive_int, sim_options
 
 NAME = "evaluate"
@@ -69,7 +70,7 @@ def planner_options(items: list[str]) -> dict[str, dict[str, str]]:
 def run(args: argparse.Namespace) -> int:
     sim_cls = get_sim_class(args.sim)
     given = sim_options(args)
-    parse_options(args.sim, sim_cls.OPTIONS, given)          # unknown options fail before any work
+    parse_options("--sim-opt", "sim", args.sim, sim_cls.OPTIONS, given)          # unknown options fail before any work
     methods = methods_list(args.methods, planner_names())
     popts = planner_options(args.planner_opt)
     for m in popts:

@@ -18,7 +18,8 @@ from ..modeldir import check_model_output, learn_symbolic_model, model_transacti
 from ..loss import LossConfig, prepare
 from ..progress import Progress
 from ..provenance import provenance
-from ..sim import split_key_values, warn_if_older_cell
+from ..options import split_key_values
+from ..sim import warn_if_older_cell
 from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
 from ..symbols import SymbolSet, dataset_arrays, dataset_pair_names, save_symbols, share_true
 from ..traces import SCHEMA as TRACES_SCHEMA, Dataset, file_schema, read_traces

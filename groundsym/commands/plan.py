@@ -12,10 +12,11 @@ import numpy as np
 from ..episode import Episode, SimEnv, ppddl_model, ppddl_world, run_episode
 from ..errors import UserError
 from ..fileio import atomic_write_json
+from ..options import split_key_values
 from ..planner import PlanningModel, make_planner
 from ..provenance import provenance
-from ..registry import get_planner_class, get_sim_class, make_sim
-from ..sim import feature_names_for, split_key_values, warn_if_older_cell
+from ..registry import BUILTIN_PLANNERS, get_planner_class, get_sim_class, make_sim
+from ..sim import feature_names_for, warn_if_older_cell
 from ._common import add_sim_args, nonneg_int, output_path, positive_int, sim_options
 
 NAME = "plan"
@@ -32,7 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain", help="a PPDDL domain file (instead of --sim)")
     p.add_argument("--problem", help="a PPDDL problem file (default: the problem in the domain file)")
     p.add_argument("--planner", default="prada",
-                   help="prada, random, symbolic-nn, continuous-nn, external[:ENGINE], lrtdp (default prada)")
+                   help=f"{', '.join(sorted(BUILTIN_PLANNERS))} or a plug-in's name; external:ENGINE "
+                        "names the engine (default prada)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="KEY=VALUE",
                    help="planner option, repeatable, e.g. horizon=4 samples=500 variant=a-prada")
     p.add_argument("--steps", type=positive_int, help="primitives per episode (default: the sim's episode "
