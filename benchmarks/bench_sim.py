@@ -48,19 +48,22 @@ def measure(root: Path, traces: int, length: int, camera: bool = False) -> dict[
     physics = 0.0                      # ... of it, during primitives
     digest = hashlib.sha256()
     with TowerSim(**({"features": "pointcloud"} if camera else {})) as sim:
-        world_step = sim.world.step
+        # every physics step goes through the scene's step (sims/tower_scene.py); a checkout from
+        # before the world was split into a scene and the parts above it (--against) steps its world
+        physics_world = getattr(sim.world, "scene", sim.world)
+        world_step = physics_world.step
 
         def timed_step(n: int = 1) -> None:
             t = time.process_time()
             world_step(n)
             clock[0] += time.process_time() - t
 
-        sim.world.step = timed_step
+        physics_world.step = timed_step
         for reset_seed, rng in trace_seeds(0, traces):
             t0 = time.process_time()
             sim.reset(reset_seed)
             t1 = time.process_time()
-            sim.world.steps = 0
+            physics_world.steps = 0
             before = clock[0]
             choices = sim.actions()
             scenes = [sim.step(choices[int(rng.integers(len(choices)))]) for _ in range(length)]
@@ -68,7 +71,7 @@ def measure(root: Path, traces: int, length: int, camera: bool = False) -> dict[
             for scene in scenes:
                 digest.update(scene_bytes(scene))
             resets += t1 - t0
-            steps += sim.world.steps
+            steps += physics_world.steps
             prims += length
             physics += clock[0] - before
     return {"prims": prims, "cpu": busy, "steps": steps, "physics": physics, "reset": resets / traces,

@@ -31,7 +31,9 @@ from groundsym.world import Scene
 
 from .camera_picture import write_camera_png
 from .tower_camera import DepthCamera, Frame
-from .tower_world import LEFT_FINGER, RIGHT_FINGER, TowerWorld, pb
+from .tower_kinematics import pb
+from .tower_scene import LEFT_FINGER, RIGHT_FINGER
+from .tower_world import TowerWorld
 
 ARM_URDF = "franka_panda/panda.urdf"   # the arm TowerWorld loads (the camera renders it coarser)
 

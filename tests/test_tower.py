@@ -15,7 +15,13 @@ from groundsym.traces import read_traces
 from sims.tower import GAMMA, MIN_GAP, REGION_X, REGION_Y, TowerSim, optimal_episode_value
 from sims.tower_kinematics import ArmKinematics, down
 from sims.tower_optimum import best_plan, ground_plan
-from sims.tower_world import DESCENT, HOME_Q, TCP_LINK, TIP_BELOW_TCP, TRANSIT, TowerWorld, pb
+from sims import tower_skills
+from sims.tower_approach import turns
+from sims.tower_control import DESCENT, TRANSIT, ArmController
+from sims.tower_hand import TIP_BELOW_TCP
+from sims.tower_kinematics import TCP_LINK, pb
+from sims.tower_scene import HOME_Q
+from sims.tower_world import TowerWorld
 
 from conftest import DATA
 
@@ -209,25 +215,25 @@ def tcp_lines(monkeypatch):
     commanded line's start and end (forward kinematics of the first and last joint targets), and
     the TCP at every physics step."""
     lines = []
-    follow = TowerWorld.follow
+    follow = ArmController.follow
 
     def recording_follow(self, q, qd, guard=None, watch=False):
         if guard is None:                       # the last joint move into the home pose
             return follow(self, q, qd, guard, watch)
         path = []
-        step = self.step
+        step = self.scene.step
 
         def step_and_record(n=1):
             step(n)
-            path.append(self.tcp())
-        self.step = step_and_record
+            path.append(self.scene.tcp())
+        self.scene.step = step_and_record
         try:
             return follow(self, q, qd, guard, watch)
         finally:
-            del self.step
+            del self.scene.step
             lines.append((guard.__name__, self.kin.fk(q[0])[0], self.kin.fk(q[-1])[0], np.array(path)))
 
-    monkeypatch.setattr(TowerWorld, "follow", recording_follow)
+    monkeypatch.setattr(ArmController, "follow", recording_follow)
     return lines
 
 
@@ -263,7 +269,7 @@ def test_a_finger_brushing_the_target_side_is_part_of_the_grasp(exact):
     exact.reset(5)
     big, _ = cubes_by_size(exact)
     w, i = exact.world, exact.objects.index(big[0])
-    yaw = w._yaw_of(i)
+    yaw = w.planner.grasp_yaw(i)
     before = w.events["side_contacts"]
     w.close_hand_around(i, np.array([-np.sin(yaw), np.cos(yaw), 0.0]) * 0.0132)
     assert w.held == i and A("inhand", big[0]) in exact.scene().truth
@@ -274,11 +280,11 @@ def test_an_arm_link_touching_another_object_stops_the_motion(exact, monkeypatch
     """A grasp of cube a aimed 2 cm beside the centre of cube b (motor noise as large as their
     distance), with the yaw choice that keeps the arm clear switched off: a finger meets b's top,
     the arm stops, nothing is grasped, b is not pushed, and the collision is counted."""
-    monkeypatch.setattr(TowerWorld, "_turns", staticmethod(lambda yaw: [yaw]))
+    monkeypatch.setattr(tower_skills, "turns", lambda yaw: [yaw])
     s = exact.reset(3)
     w = exact.world
     a, b = 0, 1
-    yaw = w._yaw_of(a)
+    yaw = w.planner.grasp_yaw(a)
     before = w.events["arm_collisions"]
     beside = np.array([-np.sin(yaw), np.cos(yaw), 0.0]) * 0.02
     w.close_hand_around(a, s.features[b, :3] - s.features[a, :3] + beside)
@@ -345,10 +351,10 @@ def test_a_hand_yaw_that_keeps_the_arm_clear_of_a_tall_tower(exact):
     w, target = exact.world, exact.objects.index(steps[8][1])
     aim = exact.scene().features[target, :3]
     w.kin.place([(b.shape, b.size, *[p[k] for p in w.poses()]) for k, b in enumerate(w.bodies) if k != target])
-    first = w._turns(w._yaw_of(target))[0]
-    legs = w._plan([(aim + np.array([0, 0, 0.1]), TRANSIT, 0.05), (aim, DESCENT, 0.01)], first)
+    first = turns(w.planner.grasp_yaw(target))[0]
+    legs = w.planner.plan([(aim + np.array([0, 0, 0.1]), TRANSIT, 0.05), (aim, DESCENT, 0.01)], first)
     assert w.kin.clearance(legs[-1].knots[-1]) < 0.005
-    chosen, legs = w._approach([(y, aim) for y in w._turns(w._yaw_of(target))], aim[2] + 0.1, target)
+    chosen, legs = w.planner.approach([(y, aim) for y in turns(w.planner.grasp_yaw(target))], aim[2] + 0.1, target)
     assert chosen != first and w.kin.clearance(legs[-1].knots[-1]) >= 0.01
     before = w.events["arm_collisions"]
     s = exact.step(A(*steps[8]))
@@ -413,7 +419,7 @@ def test_a_held_cube_keeps_its_pose_in_the_hand():
         def turn() -> float:
             return float(np.degrees(2 * np.arccos(min(1.0, abs(float(in_hand() @ grasped[0]))))))
 
-        attach, step, release = w.attach, w.step, w.release
+        attach, step, release = w.hand.attach, w.scene.step, w.hand.release
 
         def watched_attach(index: int) -> bool:
             if attach(index):
@@ -432,7 +438,7 @@ def test_a_held_cube_keeps_its_pose_in_the_hand():
             grasped.clear()
             release()
 
-        w.attach, w.step, w.release = watched_attach, watched_step, watched_release
+        w.hand.attach, w.scene.step, w.hand.release = watched_attach, watched_step, watched_release
         held = seed = 0
         while len(turns) < 100 and seed < 120:
             sim.reset(seed)
@@ -497,7 +503,7 @@ def test_objects_at_rest_sleep_and_wake_when_anything_touches_them():
             before = world.poses()[0][0].copy()
             world.step(60)
             assert np.array_equal(world.poses()[0][0], before) == sleeping
-            world.bodies.append(world._make_object("cube", 0.04, 0.5, 0.08, 0.0))
+            world.bodies.append(world.scene.make_object("cube", 0.04, 0.5, 0.08, 0.0))
             pb.resetBaseVelocity(world.bodies[1].uid, (0.0, -1.0, 0.0), physicsClientId=world.client)
             world.step(240)
             return world.poses()[0][0] - before
