@@ -96,10 +96,12 @@ class TowerWorld:
 
     @property
     def robot(self) -> int:
+        """The arm's pybullet body id."""
         return self.scene.robot
 
     @property
     def table(self) -> int:
+        """The table's pybullet body id."""
         return self.scene.table
 
     @property
