@@ -10,8 +10,12 @@ import numpy as np
 import pytest
 
 from groundsym.errors import UserError
-from groundsym.experiment import (EvalConfig, aggregate, bar_chart, evaluate, markdown_table, unit_path,
-                                  write_outputs)
+from groundsym.evaluation.config import EvalConfig
+from groundsym.evaluation.protocol import evaluate, write_outputs
+from groundsym.evaluation.results import aggregate
+from groundsym.evaluation.store import unit_path
+from groundsym.evaluation.tables import markdown_table
+from groundsym.figures import bar_chart
 
 CFG = EvalConfig(sim="tower", methods=("random", "prada"), symbol_data=(10,), model_traces=(1,), seed=5,
                  steps=3, starts=1, truth_symbols=("inhand", "on"), trace_length=6,
