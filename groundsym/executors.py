@@ -218,7 +218,7 @@ def _call_initialised(key: str, init: Callable[..., None], initargs: tuple, fn: 
 def import_ray() -> Any:
     """The ``ray`` module, or one line saying how to install it."""
     try:
-        import ray
+        import ray      # optional, and seconds to import: only when asked for
     except ImportError:
         raise UserError("--executor ray: Ray is not installed (pip install 'groundsym[ray]')") from None
     return ray

@@ -19,8 +19,8 @@ it. SIGINT is held back while the workers are forked (a Ctrl-C landing in Python
 was dropped, one in a half-started worker killed it); :func:`running` lets it in once every worker
 is up, inside the block whose exit kills them.
 
-Why fork, for ``evaluate`` too (it used to spawn, with ``concurrent.futures``; the choice came with
-its first commit, f65b63f, and no reason was recorded). What a driver holds when it forks was
+Why fork, for ``evaluate`` too (it used to spawn, through ``concurrent.futures``; the choice came
+with its first commit, f65b63f, and no reason was recorded). What a driver holds when it forks was
 checked: the main thread and the idle threads of OpenBLAS (numpy's and scipy's; OpenBLAS stops
 and restarts them around a fork, and ``learn`` has forked with them since its workers existed);
 numba's kernels, compiled without threads (no ``parallel=True``), which forked workers inherit
@@ -29,10 +29,11 @@ ran in the driver before (``DIRECT`` clients simulate in the calling thread, and
 steps on its own: units forked from a driver holding two clients, a threadpoolctl controller and
 a drawn Agg figure equalled spawned units byte for byte); matplotlib only with the Agg backend,
 after all units. Even a driver running Ray (23 threads) forked workers that finished their units.
-The outputs of ``evaluate --workers 2`` stayed byte for byte those of the spawned pool, and the
-units start faster (3 units on 2 workers: 9.0 s forked, 11.9 s spawned: a spawned worker imports
-everything and loads the kernels again). Where fork does not exist the platform's default start
-method is used (:data:`CONTEXT`).
+Every output of ``evaluate --workers 2`` (tools/same_outputs.py, and a 3-run tower evaluation with
+learned symbols and all four planners) stayed what the spawned pool wrote, less wall times, and
+the same as ``--workers 1``. Units start sooner: a spawned worker imports everything and loads the
+kernels again (once, on a shared 2-core machine, 3 units on 2 workers took 9.0 s forked, 11.9 s
+spawned). Where fork does not exist the platform's default start method is used (:data:`CONTEXT`).
 """
 
 from __future__ import annotations
