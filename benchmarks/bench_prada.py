@@ -50,7 +50,7 @@ from groundsym.planner import Observation, PlanningModel  # noqa: E402
 
 def build_model(seed: int, keep: Path | None = None) -> tuple[PlanningModel, frozenset, tuple[str, ...]]:
     from groundsym.collect import collect_traces
-    from groundsym.experiment import TruthSymbols
+    from groundsym.evaluation.truth import TruthSymbols
     from groundsym.modeldir import learn_symbolic_model, load_model
     from groundsym.registry import make_sim
 

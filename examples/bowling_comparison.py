@@ -62,7 +62,7 @@ def run_seeds(seed: int, run: int, traces: list[int]) -> dict[str, Any]:
 def learn_symbols(args: argparse.Namespace, seeds: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
     """1 unary + 3 binary symbols from ``--symbol-games`` random games in 5-pin worlds, graded on them."""
     if args.truth_symbols:
-        from groundsym.experiment import TruthSymbols
+        from groundsym.evaluation.truth import TruthSymbols
 
         return TruthSymbols(TRUTH, dict(BowlingSim.truth_predicates)), {"symbols": "truth"}
     from bowling_symbols import anneal_symbols    # the sibling script (examples/ is on sys.path)

@@ -34,7 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from groundsym.collect import collect_traces  # noqa: E402
 from groundsym.commands.learn import loss_config  # noqa: E402
-from groundsym.experiment import EvalConfig, unit_seeds  # noqa: E402
+from groundsym.evaluation.config import EvalConfig  # noqa: E402
+from groundsym.evaluation.protocol import unit_seeds  # noqa: E402
 from groundsym.fileio import atomic_write_json, atomic_write_text, read_json  # noqa: E402
 from groundsym.grounding import fit_relation_symbol  # noqa: E402
 from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402

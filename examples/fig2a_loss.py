@@ -25,10 +25,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from groundsym.anneal import AnnealConfig, _random_symbol, anneal, default_workers  # noqa: E402
+from groundsym.anneal import AnnealConfig, _random_symbol, anneal  # noqa: E402
 from groundsym.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text  # noqa: E402
 from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
 from groundsym.traces import Dataset, Trace, read_traces  # noqa: E402
+from groundsym.workers import default_workers  # noqa: E402
 
 
 def first_transitions(ds: Dataset, n: int) -> Dataset:

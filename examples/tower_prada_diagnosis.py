@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.collect import collect_traces  # noqa: E402
 from groundsym.episode import SimEnv, run_episode  # noqa: E402
-from groundsym.experiment import TruthSymbols  # noqa: E402
+from groundsym.evaluation.truth import TruthSymbols  # noqa: E402
 from groundsym.fileio import atomic_write_json  # noqa: E402
 from groundsym.logic import Atom, parse_atom  # noqa: E402
 from groundsym.reward import fit_reward  # noqa: E402

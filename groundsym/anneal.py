@@ -20,9 +20,6 @@ renamed ``u1, u2, ...`` / ``b1, b2, ...``.
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
-import os
-import signal
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -31,10 +28,10 @@ import numpy as np
 
 from . import compiled
 from .errors import UserError
+from .executors import ProcessExecutor, RayExecutor
 from .fileio import atomic_write_json, read_json
 from .loss import Loss, LossConfig, LossData, LossTerms, active_columns
 from .symbols import Symbol, binary_truth, unary_truth
-from .workers import start as start_workers
 
 CHECKPOINT_SCHEMA = "groundsym.anneal-checkpoint/1"
 
@@ -427,31 +424,24 @@ class AnnealResult:
 def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *, workers: int = 1,
            checkpoint: Path | None = None, data_sha256: str = "",
            report: Callable[[int, int, LossTerms | None], None] | None = None,
-           executor: Any = None) -> AnnealResult:
-    """Run all restarts (``workers`` processes) and return the best symbols.
+           executor: ProcessExecutor | RayExecutor | None = None) -> AnnealResult:
+    """Run all restarts and return the best symbols.
 
-    ``executor`` (``groundsym.executors``, e.g. Ray; pass ``workers=1`` with it) runs each round's
-    restarts as its tasks instead of the process pool, with the same result.
+    Each round's restarts run on ``executor`` (``groundsym.executors``: local worker processes or
+    Ray tasks; default: ``workers`` local processes), with the same result wherever they run.
 
     ``report(done, total, best_terms)`` is called after every round (for progress output). With
     ``checkpoint``, the states are written after every round and an existing file (same data,
-    seed and settings) is resumed.
+    seed and settings) is resumed; an interrupt stops the workers at once and leaves the last
+    round's checkpoint.
     """
     total = cfg.evals
     states = _resume(checkpoint, cfg, loss_cfg, seed, data_sha256) if checkpoint else None
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    if (workers > 1 or executor is not None) and compiled.AVAILABLE:
+    executor = executor if executor is not None else ProcessExecutor(workers)
+    if not executor.in_process and compiled.AVAILABLE:
         compiled.warm_up()    # load the loss kernels once here: forked workers inherit them, and
                               # a Ray worker on this machine finds them in numba's disk cache
-    pool, mask = start_workers(ctx, workers, _init_worker, (data, loss_cfg, cfg)) if workers > 1 else (None, None)
-    if pool is None:
-        _init_worker(data, loss_cfg, cfg)
-    run = pool.map if pool is not None else (lambda f, jobs: [f(j) for j in jobs])
-    if executor is not None:
-        run = executor.mapper(_init_worker, (data, loss_cfg, cfg)) or run
-    try:
-        if mask is not None:     # a Ctrl-C held back while the workers forked arrives here
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    with executor.mapper(_init_worker, (data, loss_cfg, cfg)) as run:
         if states is None:
             states = run(_work, [("start", (r, seed)) for r in range(cfg.restarts)])
         while True:
@@ -463,14 +453,6 @@ def anneal(data: LossData, loss_cfg: LossConfig, cfg: AnnealConfig, seed: int, *
                 break
             for new in run(_work, [("advance", s) for s in todo]):
                 states[new.index] = new
-    except BaseException:        # Ctrl-C or an error: stop the workers now, the checkpoint stays
-        if pool is not None:
-            pool.kill()
-            pool = None
-        raise
-    finally:
-        if pool is not None:
-            pool.close()
     return _result(states, data)
 
 
@@ -539,9 +521,5 @@ def _normalise(v: Any) -> Any:
     return v
 
 
-def default_workers() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
-
-
 __all__ = ["AnnealConfig", "AnnealResult", "RestartState", "anneal", "advance", "start_restart", "prune",
-           "temperature", "default_workers"]
+           "temperature"]

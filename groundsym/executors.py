@@ -22,12 +22,12 @@ import shutil
 import socket
 import tempfile
 import uuid
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from multiprocessing import get_context
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from .errors import UserError
+from .workers import running
 
 EXECUTORS = ("processes", "ray")
 MAX_RETRIES = 3          # runs of a Ray task whose worker process died, beyond the first
@@ -39,27 +39,38 @@ Mapper = Callable[[Callable[[Any], Any], list], list]
 
 
 class ProcessExecutor:
-    """Today's behaviour: ``workers`` spawned local processes, or the calling process for one."""
+    """``workers`` local worker processes (``groundsym.workers``: forked, stopped at once by
+    Ctrl-C), or the calling process for one."""
 
     def __init__(self, workers: int = 1) -> None:
         self.workers = max(1, int(workers))
         self.description = f"{self.workers} worker process(es)" if self.workers > 1 else "this process"
 
+    @property
+    def in_process(self) -> bool:
+        """Does every job run in the calling process (nothing to share with workers)?"""
+        return self.workers <= 1
+
     def as_completed(self, fn: Callable[..., Any], jobs: Iterable[Job]) -> Iterator[Any]:
         """``fn(*job)`` for every job, yielded as each finishes (any order)."""
         jobs = list(jobs)
-        if self.workers <= 1 or len(jobs) <= 1:
+        if self.in_process or len(jobs) <= 1:
             for job in jobs:
                 yield fn(*job)
             return
-        with ProcessPoolExecutor(max_workers=self.workers, mp_context=get_context("spawn")) as pool:
-            futures = [pool.submit(fn, *job) for job in jobs]
-            for fut in as_completed(futures):
-                yield fut.result()
+        with running(min(self.workers, len(jobs))) as pool:
+            yield from pool.as_completed(_call, [(fn, job) for job in jobs])
 
-    def mapper(self, init: Callable[..., None], initargs: tuple) -> Mapper | None:
-        """None: ``anneal`` keeps its own process pool for this executor."""
-        return None
+    @contextmanager
+    def mapper(self, init: Callable[..., None], initargs: tuple) -> Iterator[Mapper]:
+        """``map(fn, jobs)`` for the block, in the jobs' order: on ``workers`` processes, each
+        initialised once with ``init(*initargs)``, or in this process, initialised here."""
+        if self.in_process:
+            init(*initargs)
+            yield lambda fn, jobs: [fn(job) for job in jobs]
+            return
+        with running(self.workers, init, initargs) as pool:
+            yield pool.map
 
     def close(self) -> None:
         pass
@@ -69,6 +80,12 @@ class ProcessExecutor:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+
+def _call(task: tuple[Callable[..., Any], Job]) -> Any:
+    """A worker's job for :meth:`ProcessExecutor.as_completed`: ``fn(*job)``."""
+    fn, job = task
+    return fn(*job)
 
 
 class RayExecutor:
@@ -126,9 +143,12 @@ class RayExecutor:
             for ref in pending:        # an interrupted driver: nothing left running on the cluster
                 self.ray.cancel(ref, force=True)
 
-    def mapper(self, init: Callable[..., None], initargs: tuple) -> Mapper:
-        """``map(fn, jobs)`` as Ray tasks, in the jobs' order; each worker process runs
-        ``init(*initargs)`` once before its first job (``initargs`` go to the object store once)."""
+    in_process = False
+
+    @contextmanager
+    def mapper(self, init: Callable[..., None], initargs: tuple) -> Iterator[Mapper]:
+        """``map(fn, jobs)`` as Ray tasks for the block, in the jobs' order; each worker process
+        runs ``init(*initargs)`` once before its first job (``initargs`` go to the object store once)."""
         ref = self.ray.put(initargs)
         key = uuid.uuid4().hex
         remote = self.ray.remote(max_retries=self.max_retries)(_call_initialised)
@@ -141,7 +161,7 @@ class RayExecutor:
                 for r in refs:
                     self.ray.cancel(r, force=True)
                 raise
-        return run
+        yield run
 
     def _get(self, ref: Any) -> Any:
         """The task's value; a user error raised inside a task is raised here as itself."""
@@ -198,7 +218,7 @@ def _call_initialised(key: str, init: Callable[..., None], initargs: tuple, fn: 
 def import_ray() -> Any:
     """The ``ray`` module, or one line saying how to install it."""
     try:
-        import ray
+        import ray      # optional, and seconds to import: only when asked for
     except ImportError:
         raise UserError("--executor ray: Ray is not installed (pip install 'groundsym[ray]')") from None
     return ray
@@ -228,9 +248,7 @@ def check_reachable(address: str) -> None:
 def code_runtime_env() -> dict[str, Any]:
     """Ray's ``runtime_env`` that sends this checkout's packages to every worker, so a cluster runs
     the driver's exact code (its other dependencies must be installed on the nodes)."""
-    import groundsym
-
-    root = Path(groundsym.__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parent.parent      # the checkout holding groundsym/
     mods = [str(root / name) for name in SHIPPED_PACKAGES if (root / name / "__init__.py").exists()]
     return {"py_modules": mods, "excludes": ["__pycache__", "*.pyc"]}
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -62,6 +63,42 @@ def symbols_png(symbols: SymbolSet, features: np.ndarray, pairs: np.ndarray, max
         ax.legend(loc="best", fontsize=7)
     if not symbols.symbols:
         axes[0][0].set_title("no symbols")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+# ============================================================================== evaluation
+# The comparison of planners, like the paper's Fig. 2 (groundsym evaluate's results.png).
+def bar_chart(results: Mapping[str, Any]) -> bytes:
+    """One panel per model-trace count, bars per method over symbol-data sizes (like Fig. 2)."""
+    # matplotlib is imported when a chart is drawn: it takes most of a second, and the CLI imports
+    # every command, and so this module, to build its parser
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = results["methods"]
+    cfg = results["meta"]["config"]
+    methods, Ns, ns = cfg["methods"], cfg["symbol_data"], cfg["model_traces"]
+    fig, axes = plt.subplots(1, len(ns), figsize=(4.5 * len(ns), 3.6), squeeze=False, sharey=True)
+    width = 0.8 / max(len(methods), 1)
+    for ax, n in zip(axes[0], ns):
+        for i, m in enumerate(methods):
+            got = {r["symbol_data"]: r for r in rows if r["method"] == m and r["model_traces"] == n}
+            xs = [j + (i - (len(methods) - 1) / 2) * width for j, N in enumerate(Ns) if N in got]
+            ys = [got[N]["mean"] for N in Ns if N in got]
+            es = [got[N]["stderr"] or 0.0 for N in Ns if N in got]
+            ax.bar(xs, ys, width, yerr=es, capsize=2, label=m)
+        if results.get("optimum"):
+            ax.axhline(results["optimum"], color="k", ls="--", lw=1, label="optimum")
+        ax.set_xticks(range(len(Ns)), [str(N) for N in Ns])
+        ax.set_xlabel("data for symbol learning")
+        ax.set_title(f"{cfg['sim']}: {n} model trace(s)")
+    axes[0][0].set_ylabel("episode value")
+    axes[0][-1].legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)

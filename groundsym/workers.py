@@ -1,4 +1,9 @@
-"""Worker processes that a Ctrl-C can always stop: one pipe per worker, no shared locks.
+"""The one local parallel runner: forked worker processes that a Ctrl-C can always stop.
+
+``learn`` (annealing rounds: :meth:`Workers.map`, results in job order) and ``evaluate``
+(evaluation units: :meth:`Workers.as_completed`, each saved as it finishes) both run their work
+here, through ``groundsym.executors.ProcessExecutor``; :func:`running` starts the workers and
+stops them, the one place that does.
 
 Why not ``multiprocessing.Pool``: its ``terminate()`` waits for three helper threads and takes
 queue locks that the workers share (an idle worker holds the task queue's read lock while it
@@ -11,15 +16,46 @@ could hold.
 
 Workers ignore SIGINT: Ctrl-C reaches the whole process group, and only the main process acts on
 it. SIGINT is held back while the workers are forked (a Ctrl-C landing in Python's fork handlers
-was dropped, one in a half-started worker killed it); :func:`start` returns the signal mask to
-restore, so the caller can let a held-back Ctrl-C in where it stops the workers.
+was dropped, one in a half-started worker killed it); :func:`running` lets it in once every worker
+is up, inside the block whose exit kills them.
+
+Why fork, for ``evaluate`` too (it used to spawn, through ``concurrent.futures``; the choice came
+with its first commit, f65b63f, and no reason was recorded). What a driver holds when it forks was
+checked: the main thread and the idle threads of OpenBLAS (numpy's and scipy's; OpenBLAS stops
+and restarts them around a fork, and ``learn`` has forked with them since its workers existed);
+numba's kernels, compiled without threads (no ``parallel=True``), which forked workers inherit
+loaded instead of each loading them again; pybullet imported, and a physics client only if a unit
+ran in the driver before (``DIRECT`` clients simulate in the calling thread, and a forked copy
+steps on its own: units forked from a driver holding two clients, a threadpoolctl controller and
+a drawn Agg figure equalled spawned units byte for byte); matplotlib only with the Agg backend,
+after all units. Even a driver running Ray (23 threads) forked workers that finished their units.
+Every output of ``evaluate --workers 2`` (tools/same_outputs.py, and a 3-run tower evaluation with
+learned symbols and all four planners) stayed what the spawned pool wrote, less wall times, and
+the same as ``--workers 1``. Units start sooner: a spawned worker imports everything and loads the
+kernels again (once, on a shared 2-core machine, 3 units on 2 workers took 9.0 s forked, 11.9 s
+spawned). Where fork does not exist the platform's default start method is used (:data:`CONTEXT`).
 """
 
 from __future__ import annotations
 
+import multiprocessing as mp
+import os
 import signal
+from contextlib import contextmanager
 from multiprocessing.connection import Connection, wait
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
+
+#: How workers start: forked where the platform can (the module docstring says why).
+CONTEXT = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+
+#: The signals only the main process acts on: held back while the workers fork, ignored by them.
+#: A signal that should stop the workers as Ctrl-C does (SIGTERM) joins here, with its handler
+#: installed in :func:`running`.
+STOP_SIGNALS = frozenset({signal.SIGINT})
+
+
+def no_init() -> None:
+    """The initialiser of workers that need no per-process state."""
 
 
 def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
@@ -31,8 +67,9 @@ def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
     The main process's ends are closed first because a forked worker holds copies of them: with
     its own copy of the other end open, the pipe never closes when the main process dies (``kill
     -9``, out of memory), and the worker would wait on it for ever."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # blocked by start() while forking
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)   # blocked by running() while forking
     for end in main_ends:
         end.close()
     init(*init_args)
@@ -60,9 +97,13 @@ def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
 
 
 class Workers:
-    """``n`` forked worker processes, each initialised with ``init(*init_args)``."""
+    """``n`` worker processes, each initialised with ``init(*init_args)``, started from ``ctx``.
 
-    def __init__(self, ctx: Any, n: int, init: Callable[..., None], init_args: tuple) -> None:
+    Use them through :func:`running`, which holds Ctrl-C back while they start and kills them
+    when the block it guards fails."""
+
+    def __init__(self, n: int, init: Callable[..., None] = no_init, init_args: tuple = (), *,
+                 ctx: Any = CONTEXT) -> None:
         self.procs: list[Any] = []
         self.conns: list[Connection] = []
         try:
@@ -80,6 +121,17 @@ class Workers:
     def map(self, func: Callable[[Any], Any], jobs: Sequence[Any]) -> list[Any]:
         """``[func(job) for job in jobs]``, each job on whichever worker is free, in job order."""
         results: list[Any] = [None] * len(jobs)
+        for i, value in self._answers(func, jobs):
+            results[i] = value
+        return results
+
+    def as_completed(self, func: Callable[[Any], Any], jobs: Sequence[Any]) -> Iterator[Any]:
+        """``func(job)`` for every job, each on whichever worker is free, yielded as each finishes."""
+        for _, value in self._answers(func, jobs):
+            yield value
+
+    def _answers(self, func: Callable[[Any], Any], jobs: Sequence[Any]) -> Iterator[tuple[int, Any]]:
+        """``(index, func(jobs[index]))`` as each job finishes; a worker's error is raised here."""
         todo = list(range(len(jobs)))[::-1]
         busy: dict[Connection, int] = {}
 
@@ -99,9 +151,9 @@ class Workers:
                     raise RuntimeError("a worker process died (out of memory?)") from None
                 if not ok:
                     raise value
-                results[busy.pop(conn)] = value    # type: ignore[index]
+                i = busy.pop(conn)                 # type: ignore[arg-type]
                 hand_out(conn)                     # type: ignore[arg-type]
-        return results
+                yield i, value
 
     def kill(self) -> None:
         """Stop every worker now (SIGKILL: nothing it holds can keep the main process waiting)."""
@@ -129,13 +181,33 @@ class Workers:
         self.conns = []
 
 
-def start(ctx: Any, n: int, init: Callable[..., None], init_args: tuple) -> tuple[Workers, Any]:
-    """The workers, forked with SIGINT held back, and the signal mask to restore: the caller
-    restores it inside the ``try`` whose handler kills the workers, so a Ctrl-C that came during
-    the fork stops them like any other."""
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+@contextmanager
+def running(n: int, init: Callable[..., None] = no_init, init_args: tuple = (), *,
+            ctx: Any = CONTEXT) -> Iterator[Workers]:
+    """``n`` workers for the block: started with :data:`STOP_SIGNALS` held back, which are let in
+    once every worker is up; killed at once when the block raises (Ctrl-C, an error, the consumer
+    of :meth:`Workers.as_completed` going away), closed when it ends.
+
+    The one place where workers start and stop: a handler that makes another signal stop them
+    like Ctrl-C (SIGTERM) belongs here, around the ``yield``."""
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
-        return Workers(ctx, n, init, init_args), old
+        workers = Workers(n, init, init_args, ctx=ctx)
     except BaseException:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         raise
+    try:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)    # a Ctrl-C held back while forking arrives here
+        yield workers
+    except BaseException:       # Ctrl-C or an error: stop the workers now
+        workers.kill()
+        raise
+    workers.close()
+
+
+def default_workers() -> int:
+    """The cores this process may run on: ``learn``'s default worker count."""
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+__all__ = ["CONTEXT", "STOP_SIGNALS", "Workers", "running", "no_init", "default_workers"]

@@ -1,17 +1,24 @@
 """``groundsym evaluate``'s protocol: aggregation by hand, the same table for any number of
-workers, resuming from finished runs, refusing to mix evaluations; on the real tower sim (with
-its ground-truth relations as the abstraction, so the test needs no symbol learning)."""
+workers, resuming from finished runs, stopping its workers when interrupted, refusing to mix
+evaluations; on the real tower sim (with its ground-truth relations as the abstraction, so the
+test needs no symbol learning)."""
 
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
 
+from conftest import descendants
 from groundsym.errors import UserError
-from groundsym.experiment import (EvalConfig, aggregate, bar_chart, evaluate, markdown_table, unit_path,
-                                  write_outputs)
+from groundsym.evaluation.config import EvalConfig
+from groundsym.evaluation.protocol import evaluate, write_outputs
+from groundsym.evaluation.results import aggregate
+from groundsym.evaluation.store import unit_path
+from groundsym.evaluation.tables import markdown_table
+from groundsym.figures import bar_chart
 
 CFG = EvalConfig(sim="tower", methods=("random", "prada"), symbol_data=(10,), model_traces=(1,), seed=5,
                  steps=3, starts=1, truth_symbols=("inhand", "on"), trace_length=6,
@@ -47,6 +54,22 @@ def test_same_table_for_any_number_of_workers(tmp_path):
     b = evaluate(CFG, 2, tmp_path / "b", workers=2, progress=False, optimum=0.1)
     assert a["methods"] == b["methods"] and len(a["methods"]) == 2
     assert all(r["n"] == 2 for r in a["methods"])
+
+
+def test_an_interrupt_while_a_unit_is_saved_stops_the_workers_at_once(tmp_path, monkeypatch):
+    """Ctrl-C in the driver while it writes a finished unit: the units still running on the
+    other worker are not waited for, and no worker outlives the evaluation."""
+    from groundsym.evaluation import protocol
+
+    def interrupted(out, result):
+        raise KeyboardInterrupt
+
+    others = descendants(os.getpid())
+    monkeypatch.setattr(protocol, "save_unit", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(CFG, 3, tmp_path / "a", workers=2, progress=False)
+    assert descendants(os.getpid()) - others == set()
+    assert not (tmp_path / "a" / "runs").exists()
 
 
 def test_resume_from_finished_runs_gives_the_same_table(tmp_path):

@@ -69,13 +69,13 @@ def seeds(tmp_path_factory) -> dict[str, Path]:
 
 
 def _eval_config():
-    from groundsym.experiment import EvalConfig
+    from groundsym.evaluation.config import EvalConfig
 
     return EvalConfig(sim="tower", methods=("random", "prada"), symbol_data=(20,), model_traces=(1, 3))
 
 
 def _unit_folder(tmp: Path) -> None:
-    from groundsym.experiment import UNIT_SCHEMA, unit_path
+    from groundsym.evaluation.store import UNIT_SCHEMA, unit_path
 
     cfg = _eval_config()
     entries = [{"model_traces": n, "method": m, "values": [0.5, 0.25], "mean": 0.375}
@@ -99,7 +99,7 @@ CHECKPOINT_CFG = _checkpoint_cfg()
 
 # ----------------------------------------------------------------------------- readers
 def _read_unit(path: Path) -> Any:
-    from groundsym.experiment import aggregate
+    from groundsym.evaluation.results import aggregate
 
     out = path.parent.parent
     return aggregate(out, _eval_config(), 1, None, None)

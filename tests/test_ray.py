@@ -25,7 +25,9 @@ import pytest
 
 from conftest import DATA, as_foreground_job, descendants
 from groundsym.cli import main
-from groundsym.experiment import EvalConfig, evaluate, unit_path
+from groundsym.evaluation.config import EvalConfig
+from groundsym.evaluation.protocol import evaluate
+from groundsym.evaluation.store import unit_path
 
 ray = pytest.importorskip("ray", reason="Ray is not installed here (pip install 'groundsym[ray]'); "
                                         "the Ray executor's tests need it")

@@ -194,15 +194,16 @@ def test_loading_refuses_parts_of_different_models(data, model, tmp_path, capsys
     (["--unary", "0", "--binary", "0"], "need at least one symbol"),
 ])
 def test_evaluate_validates_before_writing_config(tmp_path, capsys, bad, message):
-    from groundsym import experiment
+    from groundsym.evaluation.config import EvalConfig
+    from groundsym.evaluation.store import check_config
 
     out = tmp_path / "E"
     assert main(["evaluate", "--sim", "tower", "--runs", "1", "--quiet", "-o", str(out), *bad]) == 2
     one_line_error(capsys, message)
     assert not out.exists()
     # the corrected options are accepted by the same folder (nothing was left to refuse them)
-    good = experiment.EvalConfig(sim="tower", methods=("random",), symbol_data=(20,), model_traces=(1,))
-    experiment._check_config(out, good)
+    good = EvalConfig(sim="tower", methods=("random",), symbol_data=(20,), model_traces=(1,))
+    check_config(out, good)
     assert json.loads((out / "config.json").read_text())["fingerprint"] == good.fingerprint()
 
 

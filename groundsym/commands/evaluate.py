@@ -6,10 +6,14 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import Sequence
 
 from ..errors import UserError
+from ..evaluation.config import EvalConfig
+from ..evaluation.protocol import evaluate, optimum_of
+from ..evaluation.store import check_config
+from ..evaluation.tables import markdown_table
 from ..executors import add_executor_args, check_executor_options, make_executor
-from ..experiment import EvalConfig, check_config, evaluate, markdown_table, methods_list, optimum_of, parse_list
 from ..provenance import provenance
 from ..registry import get_sim_class, planner_names
 from ..fileio import read_json
@@ -55,6 +59,28 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "symbols (e.g. inhand,on), to separate planning from symbol learning")
     p.add_argument("-o", "--output", required=True, help="results folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def parse_list(text: str, flag: str) -> tuple[int, ...]:
+    """``--symbol-data 40,80,160``: positive whole numbers separated by commas."""
+    try:
+        vals = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise UserError(f"{flag} {text}: expected whole numbers separated by commas") from None
+    if not vals or any(v < 1 for v in vals):
+        raise UserError(f"{flag} {text}: expected positive whole numbers")
+    return vals
+
+
+def methods_list(text: str, known: Sequence[str]) -> tuple[str, ...]:
+    """``--methods random,prada``: planner names, each among ``known``."""
+    ms = tuple(m.strip() for m in text.split(",") if m.strip())
+    for m in ms:
+        if m.split(":", 1)[0] not in known:
+            raise UserError(f"--methods {m}: unknown planner (available: {', '.join(known)})")
+    if not ms:
+        raise UserError("--methods: name at least one planner")
+    return ms
 
 
 def planner_options(items: list[str]) -> dict[str, dict[str, str]]:

@@ -10,7 +10,7 @@ import sys
 from dataclasses import fields
 from pathlib import Path
 
-from ..anneal import AnnealConfig, anneal, default_workers
+from ..anneal import AnnealConfig, anneal
 from ..errors import UserError, interrupted
 from ..executors import add_executor_args, check_executor_options, make_executor
 from ..fileio import file_sha256, output_target
@@ -23,6 +23,7 @@ from ..sim import warn_if_older_cell
 from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
 from ..symbols import SymbolSet, dataset_arrays, dataset_pair_names, save_symbols, share_true
 from ..traces import SCHEMA as TRACES_SCHEMA, Dataset, file_schema, read_traces
+from ..workers import default_workers
 from ._common import nonneg_int, positive_int
 
 NAME = "learn"
@@ -210,8 +211,8 @@ def learn_symbols(args: argparse.Namespace, out: Path, model_ds: Dataset | None 
         def report(done: int, total: int, best) -> None:
             progress.update(done, f"best {best}" if best is not None else "")
 
-        result = anneal(data, loss_cfg, cfg, args.seed, workers=workers if args.executor == "processes" else 1,
-                        checkpoint=args.checkpoint, data_sha256=sha, report=report, executor=ex)
+        result = anneal(data, loss_cfg, cfg, args.seed, checkpoint=args.checkpoint, data_sha256=sha, report=report,
+                        executor=ex)
     progress.close(f"best {result.terms}")
     symbols = SymbolSet.for_dataset(result.symbols, ds)
     feats, pairs = dataset_arrays(ds)
