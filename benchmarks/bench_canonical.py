@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-from groundsym.anneal import AnnealConfig, _random_symbol  # noqa: E402
+from groundsym.anneal import AnnealConfig, random_symbol  # noqa: E402
 from groundsym.canonical import canonical_form, canonical_forms, search_leaves  # noqa: E402
 from groundsym.loss import prepare  # noqa: E402
 from groundsym.symbols import binary_truth, unary_truth  # noqa: E402
@@ -64,7 +64,7 @@ def main() -> int:
     t0 = time.process_time()
     n = 50
     for _ in range(n):
-        syms = [_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
+        syms = [random_symbol(rng, 1, "u1", data, cfg), random_symbol(rng, 2, "b1", data, cfg)]
         u = unary_truth(syms[:1], data.features).astype(np.uint8)[data.pre]
         b = binary_truth(syms[1:], data.pairs).astype(np.uint8)[data.pre]
         canonical_forms(u, b, data.lock)

@@ -38,7 +38,7 @@ import numpy as np
 ROOT = Path(os.environ.get("GROUNDSYM_BENCH_ROOT") or Path(__file__).resolve().parents[1])
 sys.path.insert(0, str(ROOT))
 
-from groundsym.anneal import AnnealConfig, _random_symbol, advance, start_restart  # noqa: E402
+from groundsym.anneal import AnnealConfig, random_symbol, advance, start_restart  # noqa: E402
 from groundsym.loss import Loss, prepare  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
 
@@ -78,7 +78,7 @@ def workloads(traces: Path | None, evals: int, kernels: str | None, one_temperat
     out["abstractions"] = len(loss._abstraction_cache)
     rng = np.random.default_rng(0)
     n_random = max(evals // 10, 50)
-    sets = [[_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)] for _ in range(n_random)]
+    sets = [[random_symbol(rng, 1, "u1", data, cfg), random_symbol(rng, 2, "b1", data, cfg)] for _ in range(n_random)]
     fresh = _loss(data, kernels)
     out["random"] = cpu_rate(lambda: [fresh(c) for c in sets], n_random)
     out["transitions"], out["objects"] = data.n_transitions, data.features.shape[1]

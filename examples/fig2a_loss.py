@@ -25,7 +25,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from groundsym.anneal import AnnealConfig, _random_symbol, anneal  # noqa: E402
+from groundsym.anneal import AnnealConfig, random_symbol, anneal  # noqa: E402
 from groundsym.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text  # noqa: E402
 from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
 from groundsym.traces import Dataset, Trace, read_traces  # noqa: E402
@@ -68,7 +68,7 @@ def main() -> int:
             learned.append(test_loss(res.candidate).total)
             rng = np.random.default_rng(seed)
             for _ in range(args.random):
-                cand = [_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
+                cand = [random_symbol(rng, 1, "u1", data, cfg), random_symbol(rng, 2, "b1", data, cfg)]
                 random.append(test_loss(cand).total)
         q1, med, q3 = (float(x) for x in np.percentile(random, [25, 50, 75]))
         rows.append({"n": n, "learned_mean": float(np.mean(learned)), "learned_std": float(np.std(learned)),

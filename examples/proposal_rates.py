@@ -1,7 +1,7 @@
 """How often does the search *propose* a symbol that means a ground-truth relation?
 
 A symbol the loss wants can only be learned if the annealer's re-seeds propose something near it.
-This script draws new symbols exactly as a re-seed does (``groundsym.anneal._random_symbol``, with
+This script draws new symbols exactly as a re-seed does (``groundsym.anneal.random_symbol``, with
 the search settings given) on a traces file, and counts the share of proposals whose truth on the
 file's scenes matches each ground-truth relation of the same arity (F1 at least ``--good``; binary
 relations in either argument order, as ``groundsym show --against`` scores them). Diagnosis only:
@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from groundsym.anneal import AnnealConfig, _random_symbol  # noqa: E402
+from groundsym.anneal import AnnealConfig, random_symbol  # noqa: E402
 from groundsym.commands.learn import anneal_config  # noqa: E402
 from groundsym.errors import UserError  # noqa: E402
 from groundsym.grounding import _off_diagonal, scores, truth_arrays  # noqa: E402
@@ -49,7 +49,7 @@ def rates(path: Path, draws: int, seed: int, cfg: AnnealConfig, good: float,
         if not names:
             continue
         for _ in range(draws):
-            s = _random_symbol(rng, arity, "s", data, cfg)
+            s = random_symbol(rng, arity, "s", data, cfg)
             if arity == 1:
                 h = s.holds(feats)
                 for r in names:

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from groundsym.anneal import (IGNORE_WIDTH, AnnealConfig, _exchange, _perturb, _random_symbol, anneal, hops, prune, settle,
+from groundsym.anneal import (IGNORE_WIDTH, AnnealConfig, exchange, perturb, random_symbol, anneal, hops, prune, settle,
                              share_radius, temperature)
 from groundsym.grounding import match_symbols, truth_arrays
 from groundsym.loss import Loss, LossConfig, prepare
@@ -48,13 +48,13 @@ def test_result_does_not_depend_on_where_rounds_end(data):
 
 def test_proposals_use_the_change_tolerance_the_data_was_prepared_with():
     """New symbols centre on objects a primitive moved by more than the loss's ``change_tol``."""
-    from groundsym.anneal import _points
+    from groundsym.anneal import proposal_points
     from groundsym.traces import read_traces
     ds = read_traces(Path(__file__).resolve().parent / "data" / "tower_16.json")   # real jitter: small moves
     loose, strict = prepare(ds, LossConfig(change_tol=0.01)), prepare(ds, LossConfig(change_tol=2.0))
     assert (loose.change_tol, strict.change_tol) == (0.01, 2.0)
-    moved_loose = _points(loose)[2]
-    moved_strict = _points(strict)[2]
+    moved_loose = proposal_points(loose)[2]
+    moved_strict = proposal_points(strict)[2]
     assert len(moved_strict) < len(moved_loose)
 
 
@@ -63,7 +63,7 @@ def test_pair_centres_are_pairs_a_primitive_involved_after_it():
     argument or an object it moved), in the scene after it: the pool is computed here again from
     the traces' own objects, and on real tower traces it is rich in the simulator's ``on``, the
     reason for it (docs/symbols.md)."""
-    from groundsym.anneal import _points
+    from groundsym.anneal import proposal_points
     from groundsym.traces import read_traces
     ds = read_traces(Path(__file__).resolve().parent / "data" / "tower_16.json")
     data = prepare(ds)
@@ -78,7 +78,7 @@ def test_pair_centres_are_pairs_a_primitive_involved_after_it():
                     want.append(np.asarray(after.features)[i] - np.asarray(after.features)[j])
                     on_pool.append(any(a.predicate == "on" and set(a.args) == {tr.objects[i], tr.objects[j]}
                                        for a in after.truth))
-    got, want = _points(data)[3], np.array(want)
+    got, want = proposal_points(data)[3], np.array(want)
     rows = lambda a: a[np.lexsort(a.T[::-1])]       # noqa: E731  the same rows, in one order
     assert len(got) == len(want) > 0
     assert np.allclose(rows(got), rows(want))
@@ -185,7 +185,7 @@ def test_new_symbols_ignore_dimensions_at_the_configured_rate():
     rng = np.random.default_rng(0)
     for p, lo, hi in ((0.0, 0.0, 0.0), (0.25, 0.18, 0.32)):
         cfg = AnnealConfig(p_ignore=p)
-        ratios = np.stack([_random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale for _ in range(400)])
+        ratios = np.stack([random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale for _ in range(400)])
         # the share scaling shapes only the dimensions a symbol looks at: an ignored one keeps its width
         ignored = np.isclose(ratios, IGNORE_WIDTH)
         assert lo <= ignored.mean() <= hi
@@ -213,7 +213,7 @@ def test_a_size_only_symbol_centred_on_a_ball_holds_for_the_balls():
     rng = np.random.default_rng(4)
     seen = 0
     for _ in range(3000):
-        s = _random_symbol(rng, 1, "u", d, AnnealConfig(p_ignore=0.7))
+        s = random_symbol(rng, 1, "u", d, AnnealConfig(p_ignore=0.7))
         size_only = np.isclose(s.widths[:3] / d.unary_scale[:3], IGNORE_WIDTH).all()
         if size_only and np.isclose(s.centre[3], SIZES[0]):
             seen += 1
@@ -226,7 +226,7 @@ def test_subset_looks_draws_the_number_of_dimensions_uniformly():
     d = prepare(kinematic_tower(4, seed=2))
     rng = np.random.default_rng(2)
     cfg = AnnealConfig(looks="subset")
-    looked = [int((~np.isclose(_random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale, IGNORE_WIDTH)).sum())
+    looked = [int((~np.isclose(random_symbol(rng, 1, "u", d, cfg).widths / d.unary_scale, IGNORE_WIDTH)).sum())
               for _ in range(800)]
     counts = np.bincount(looked, minlength=5)
     assert counts[0] == 0 and all(150 <= c <= 250 for c in counts[1:])   # 200 each expected
@@ -259,7 +259,7 @@ def test_a_hop_settles_its_own_slot_greedily_and_costs_one_plus_hop_steps(data):
     loss = _Counting(Loss(data))
     rng = np.random.default_rng(3)
     cfg = AnnealConfig(hop_steps=25)
-    start = [_random_symbol(rng, 1, "u1", data, cfg), _random_symbol(rng, 2, "b1", data, cfg)]
+    start = [random_symbol(rng, 1, "u1", data, cfg), random_symbol(rng, 2, "b1", data, cfg)]
     raw = Loss(data)(start).total
     settled, terms = settle(rng, loss, start, 1, cfg)
     assert loss.calls == 26
@@ -267,10 +267,10 @@ def test_a_hop_settles_its_own_slot_greedily_and_costs_one_plus_hop_steps(data):
     assert settled[0] is start[0]                               # the other slot is left as it was
     # greedy: replaying the same draws, every accepted step was no worse than the one before
     rng2 = np.random.default_rng(3)
-    [_random_symbol(rng2, 1, "u1", data, cfg), _random_symbol(rng2, 2, "b1", data, cfg)]
+    [random_symbol(rng2, 1, "u1", data, cfg), random_symbol(rng2, 2, "b1", data, cfg)]
     best, path = start, [raw]
     for _ in range(25):
-        trial = [best[0], _perturb(rng2, best[1], cfg)]
+        trial = [best[0], perturb(rng2, best[1], cfg)]
         t = Loss(data)(trial).total
         if t <= path[-1]:
             best, path = trial, path + [t]
@@ -297,12 +297,12 @@ def test_replica_exchange_follows_the_parallel_tempering_rule():
     always when the cold rung holds the worse state, else e^-2.5 here (hand-computed)."""
     rng = np.random.default_rng(0)
     pop, losses = [["worse"], ["better"]], [10.0, 5.0]
-    _exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
+    exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
     assert pop == [["better"], ["worse"]] and losses == [5.0, 10.0]
     trades = 0
     for _ in range(20000):
         pop, losses = [["a"], ["b"]], [5.0, 10.0]
-        _exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
+        exchange(rng, pop, losses, 0, 1.0, [1.0, 2.0])
         trades += pop[0] == ["b"]
     assert trades / 20000 == pytest.approx(np.exp(-2.5), abs=0.006)
 

@@ -106,10 +106,10 @@ def _read_unit(path: Path) -> Any:
 
 
 def _read_checkpoint(path: Path) -> Any:
-    from groundsym.anneal import _resume
+    from groundsym.anneal import load_checkpoint
     from groundsym.loss import LossConfig
 
-    return _resume(path, CHECKPOINT_CFG, LossConfig(), 3, "x")
+    return load_checkpoint(path, CHECKPOINT_CFG, LossConfig(), 3, "x")
 
 
 def _reader(kind: str) -> Callable[[Path], Any]:

@@ -237,15 +237,15 @@ def test_predict_mode_is_checked():
 def _check_neighbours_against_enumeration(data, n_unary, n_binary, seed, evaluations, queries):
     """Every lone class's nearest classes (distance, tie set, and a permutation attaining it)
     against the naive enumeration of all permutations, over the classes of random symbol sets."""
-    from groundsym.anneal import AnnealConfig, _random_symbol
+    from groundsym.anneal import AnnealConfig, random_symbol
     from groundsym.relational import INF, permutation_cost
     from groundsym.symbols import binary_truth, unary_truth
     rng = np.random.default_rng(seed)
     cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary)
     compared = 0
     for _ in range(evaluations):
-        syms = [_random_symbol(rng, 1, f"u{i}", data, cfg) for i in range(n_unary)] + \
-               [_random_symbol(rng, 2, f"b{i}", data, cfg) for i in range(n_binary)]
+        syms = [random_symbol(rng, 1, f"u{i}", data, cfg) for i in range(n_unary)] + \
+               [random_symbol(rng, 2, f"b{i}", data, cfg) for i in range(n_binary)]
         u = unary_truth(syms[:n_unary], data.features).astype(np.uint8)[data.pre]
         b = binary_truth(syms[n_unary:], data.pairs).astype(np.uint8)[data.pre]
         for lock, label in [(data.lock, data.label), (np.zeros_like(data.lock), np.zeros_like(data.label))]:
