@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass, field
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from ..anneal import AnnealConfig
 from ..errors import UserError
@@ -62,16 +62,20 @@ class EvalConfig:
         return hashlib.sha256(json.dumps(self.key(), sort_keys=True).encode()).hexdigest()[:16]
 
 
+def check_truth_symbols(names: Sequence[str], truth: Mapping[str, int]) -> None:
+    """``--truth-symbols`` must name relations the simulation knows."""
+    unknown = [p for p in names if p not in truth]
+    if unknown:
+        raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
+                        f"({', '.join(sorted(truth))})")
+
+
 def validate(cfg: EvalConfig) -> None:
     """Every option a unit will use, checked before the results folder is touched: a refused
     command must leave no config.json behind that would then refuse the corrected one."""
     sim_cls = get_sim_class(cfg.sim)
     parse_options("--sim-opt", "sim", cfg.sim, sim_cls.OPTIONS, dict(cfg.sim_options))
-    truth = dict(getattr(sim_cls, "truth_predicates", {}) or {})
-    unknown = [p for p in cfg.truth_symbols if p not in truth]
-    if unknown:
-        raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
-                        f"({', '.join(sorted(truth))})")
+    check_truth_symbols(cfg.truth_symbols, getattr(sim_cls, "truth_predicates", {}) or {})
     for method in cfg.methods:
         given = dict(cfg.planner_options.get(method, {}))
         parse_options("--planner-opt", "planner", method, getattr(get_planner_class(method), "OPTIONS", ()), given)

@@ -34,7 +34,6 @@ from .. import compiled
 from ..anneal import anneal
 from ..collect import collect_traces
 from ..episode import SimEnv, run_episode
-from ..errors import UserError
 from ..executors import ProcessExecutor, RayExecutor
 from ..figures import bar_chart
 from ..fileio import atomic_write_bytes, atomic_write_json, atomic_write_text
@@ -45,7 +44,7 @@ from ..planner import PlanningModel, make_planner
 from ..progress import Progress
 from ..registry import get_sim_class, make_sim
 from ..symbols import SymbolSet
-from .config import EvalConfig
+from .config import EvalConfig, check_truth_symbols
 from .results import aggregate
 from .store import UNIT_SCHEMA, check_config, save_unit, unit_path
 from .tables import markdown_table
@@ -57,10 +56,7 @@ from .truth import TruthSymbols
 def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, dict[str, Any]]:
     """Symbols for one unit: learned by annealing on ``ds`` (or the truth oracle), and a report."""
     if cfg.truth_symbols:
-        unknown = [p for p in cfg.truth_symbols if p not in sim.truth_predicates]
-        if unknown:
-            raise UserError(f"--truth-symbols: {', '.join(unknown)} not among the sim's relations "
-                            f"({', '.join(sorted(sim.truth_predicates))})")
+        check_truth_symbols(cfg.truth_symbols, sim.truth_predicates)
         return TruthSymbols(tuple(cfg.truth_symbols), dict(sim.truth_predicates)), {"symbols": "truth"}
     loss_cfg = LossConfig()
     data = prepare(ds, loss_cfg, "symbol data")
