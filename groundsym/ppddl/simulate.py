@@ -11,6 +11,10 @@ carries deictic references as extra parameters (see :mod:`groundsym.ppddl.from_r
 :class:`Task` maps every PPDDL action onto the primitive a robot would run, so simulated traces
 hold ``(openHandOver o2)`` rather than ``(openHandOver_r1 o2 o5)``. For ordinary domains the
 primitive is the action itself. A primitive with no applicable PPDDL action changes nothing.
+
+Why one module of about 470 lines: :class:`Task` is the semantics of one grounded problem, and
+its caches (ground actions, the trigger index, outcome distributions) serve every query; the pure
+grounding of formulas and effects is apart, in :mod:`groundsym.ppddl.ground`.
 """
 
 from __future__ import annotations
