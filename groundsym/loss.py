@@ -198,14 +198,14 @@ class _SymbolTruth:
 
 
 class Loss:
-    """``loss(symbols) -> LossTerms`` on one dataset; caches class distances across calls."""
+    """``loss(symbols) -> LossTerms`` on one dataset; caches the terms of each abstraction, and its
+    backend the canonical forms and class distances, across calls."""
 
     def __init__(self, data: LossData, config: LossConfig = LossConfig(), kernels: str | None = None):
         """``kernels``: "numba" (compiled, :mod:`groundsym.compiled`; the default where numba is
         installed) or "numpy" (the reference). Both give the same terms, bit for bit; the
         ``backend`` of those kernels holds this loss's memos (:mod:`groundsym.backends`)."""
         self.backend = new_backend(kernels)
-        self.kernels = self.backend.name
         self.data = data
         self.config = config
         self.sigma = config.reward_sigma or data.sigma
