@@ -19,6 +19,11 @@ it was computed in, nor of what was computed before. Everything here is built th
 
 Hash collisions could only merge colour classes; they never break exactness, because the search
 visits an isomorphism-invariant tree and every leaf is an actual encoding of the state.
+
+The hashing itself is :mod:`.hashing`. The numpy code here is the reference of the compiled
+kernels (:mod:`groundsym.compiled.canonical`); :func:`canonical_forms` takes its four steps with
+compiled twins as one :class:`CanonicalKernels` object, so this module never imports the
+kernels (they build on it).
 """
 
 from __future__ import annotations
