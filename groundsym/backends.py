@@ -160,7 +160,7 @@ def _off_diagonal(m: int) -> np.ndarray:
 
 
 #: The kernels by name; the first available one is the default.
-BACKENDS: dict[str, type[Backend]] = {"numba": NumbaBackend, "numpy": NumpyBackend}
+BACKENDS: dict[str, type[Backend]] = {backend.name: backend for backend in (NumbaBackend, NumpyBackend)}
 KERNELS = tuple(BACKENDS)
 
 
