@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 DATA = Path(__file__).resolve().parent / "data"
+from groundsym.backends import new_backend
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.backends import new_backend
 from groundsym.loss import Loss, LossConfig, LossTerms, active_columns, prepare, width_penalty
 from groundsym.mixtures import mixture_ll
 from groundsym.relational import Encoded, naive_state_distance
