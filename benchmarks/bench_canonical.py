@@ -24,11 +24,11 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from groundsym.anneal import AnnealConfig, random_symbol  # noqa: E402
-from groundsym.canonical import canonical_form, canonical_forms, search_leaves  # noqa: E402
 from groundsym.loss import prepare  # noqa: E402
+from groundsym.relational.canonical import canonical_form, canonical_forms, search_leaves  # noqa: E402
 from groundsym.symbols import binary_truth, unary_truth  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
-from test_canonical import SYMMETRIC, _random_state  # noqa: E402
+from test_canonical import SYMMETRIC, random_state  # noqa: E402
 
 
 def measure(u: np.ndarray, b: np.ndarray, lock: np.ndarray) -> tuple[float, float, int]:
@@ -52,7 +52,7 @@ def main() -> int:
     total = 0.0
     for _ in range(200):
         m = int(rng.integers(8, 13))
-        s = _random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
+        s = random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
                           float(rng.uniform(0.01, 0.4)), rng.random() < 0.3)
         r = measure(*s)
         total += r[0]

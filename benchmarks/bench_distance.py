@@ -24,7 +24,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from groundsym.loss import Loss, prepare  # noqa: E402
+from groundsym.backends import new_backend  # noqa: E402
+from groundsym.loss import prepare  # noqa: E402
 from groundsym.relational import Encoded, exact_state_distance, naive_state_distance  # noqa: E402
 from groundsym.symbols import binary_truth, unary_truth  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
@@ -80,9 +81,9 @@ def naive_pass(enc):
 
 
 def fast_pass(data, u, b):
-    loss = Loss(data)  # fresh caches
+    backend = new_backend()  # fresh memos
     pre_u, pre_b = u[data.pre], b[data.pre]
-    nb = loss.neighbours(pre_u, pre_b, data.lock, data.label)
+    nb = backend.neighbours(pre_u, pre_b, data.lock, data.label)
     dist = np.zeros(data.n_transitions)
     for k, group in enumerate(nb.members):
         if len(group) == 1:
@@ -106,7 +107,7 @@ def main() -> int:
         print(f"per pair {name}: {n} pairs, identical minima: {same}; fast {tf * 1e3:.3f} ms, "
               f"naive {tn * 1e3:.1f} ms, ratio {tn / tf:.0f}x")
     # the first pass also builds the per-size permutation tables (once per process); later passes,
-    # each on a fresh Loss (empty caches), show the cost of one pass itself
+    # each on a fresh backend (empty memos), show the cost of one pass itself
     times = []
     for _ in range(4):
         t0 = time.process_time()

@@ -6,11 +6,13 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from groundsym.canonical import canonical_form, canonical_forms, encode_rows, search_leaves
 from groundsym.relational import Encoded, naive_state_distance
+from groundsym.relational.canonical import canonical_form, canonical_forms, encode_rows, search_leaves
 
 
-def _random_state(rng, m, k, l, density, locked=False):
+def random_state(rng, m, k, l, density, locked=False):
+    """A random state of ``m`` objects, ``k`` unary and ``l`` binary symbols (shared with
+    tests/test_compiled.py and benchmarks/bench_canonical.py)."""
     u = (rng.random((m, k)) < density).astype(np.uint8)
     b = (rng.random((m, m, l)) < density).astype(np.uint8)
     b[np.arange(m), np.arange(m)] = 0
@@ -21,7 +23,8 @@ def _random_state(rng, m, k, l, density, locked=False):
     return u, b, lock
 
 
-def _relabel(rng, u, b, lock):
+def relabel(rng, u, b, lock):
+    """The same state with its objects in a random order (an isomorphic state)."""
     p = rng.permutation(len(u))
     return u[p], b[p][:, p], lock[p]
 
@@ -75,8 +78,8 @@ def test_forms_are_equal_exactly_for_isomorphic_states(seed):
         m = int(rng.integers(2, 8))
         k, l = int(rng.integers(0, 2)), int(rng.integers(1, 3))
         locked = rng.random() < 0.4
-        pool = [_random_state(rng, m, k, l, float(rng.uniform(0.05, 0.3)), locked) for _ in range(6)]
-        pool += [_relabel(rng, *pool[int(rng.integers(len(pool)))]) for _ in range(4)]
+        pool = [random_state(rng, m, k, l, float(rng.uniform(0.05, 0.3)), locked) for _ in range(6)]
+        pool += [relabel(rng, *pool[int(rng.integers(len(pool)))]) for _ in range(4)]
         forms = [canonical_form(*s) for s in pool]
         for s, (code, perm) in zip(pool, forms):
             _check_form(*s, code, perm)
@@ -98,11 +101,11 @@ def test_forms_do_not_depend_on_the_batch():
     is what made the old per-batch round count change colours."""
     rng = np.random.default_rng(4)
     m = 8
-    states = [_random_state(rng, m, 1, 2, float(rng.uniform(0.02, 0.3)), rng.random() < 0.3) for _ in range(120)]
+    states = [random_state(rng, m, 1, 2, float(rng.uniform(0.02, 0.3)), rng.random() < 0.3) for _ in range(120)]
     path = np.zeros((m, m, 2), dtype=np.uint8)
     path[np.arange(m - 1), np.arange(1, m), 0] = 1
     states += [(np.zeros((m, 1), np.uint8), path, np.zeros(m, np.int64))]
-    states += [_relabel(rng, *states[int(rng.integers(len(states)))]) for _ in range(60)]
+    states += [relabel(rng, *states[int(rng.integers(len(states)))]) for _ in range(60)]
     alone = [canonical_form(*s) for s in states]
     for _ in range(6):
         pick = rng.choice(len(states), size=int(rng.integers(2, 60)), replace=False)
@@ -131,16 +134,16 @@ def test_symmetric_states_are_bounded_and_canonical(name):
     _check_form(u, b, lock, code, perm)
     rng = np.random.default_rng(0)
     for _ in range(5):
-        assert np.array_equal(canonical_form(*_relabel(rng, u, b, lock))[0], code)
+        assert np.array_equal(canonical_form(*relabel(rng, u, b, lock))[0], code)
 
 
-def test_random_states_of_8_to_12_objects_are_bounded_and_invariant():
+def testrandom_states_of_8_to_12_objects_are_bounded_and_invariant():
     rng = np.random.default_rng(9)
     for _ in range(200):
         m = int(rng.integers(8, 13))
-        s = _random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
+        s = random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
                           float(rng.uniform(0.01, 0.4)), rng.random() < 0.3)
         assert search_leaves(*s) <= 64
         code, perm = canonical_form(*s)
         _check_form(*s, code, perm)
-        assert np.array_equal(canonical_form(*_relabel(rng, *s))[0], code)
+        assert np.array_equal(canonical_form(*relabel(rng, *s))[0], code)

@@ -14,12 +14,12 @@ import pytest
 
 from conftest import DATA
 from groundsym import compiled
-from groundsym.compiled import canonical, classes, nearest
+from groundsym.compiled import canonical, classes, heap, nearest
 from groundsym.anneal import AnnealConfig, advance, start_restart
-from groundsym.canonical import canonical_form, canonical_forms
 from groundsym.loss import Loss, LossConfig, prepare
+from groundsym.relational.canonical import NUMPY_CANONICAL, canonical_form, canonical_forms
 from groundsym.traces import read_traces
-from test_canonical import SYMMETRIC, _random_state, _relabel
+from test_canonical import SYMMETRIC, random_state, relabel
 
 pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba is not installed")
 
@@ -29,13 +29,13 @@ def test_canonical_forms_equal_the_reference_on_random_and_symmetric_states():
     states = list(SYMMETRIC.values())
     for _ in range(300):
         m = int(rng.integers(1, 13))
-        states.append(_random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
+        states.append(random_state(rng, m, int(rng.integers(0, 3)), int(rng.integers(1, 3)),
                                     float(rng.uniform(0.01, 0.4)), rng.random() < 0.3))
-    states += [_relabel(rng, *s) for s in states[:40]]
+    states += [relabel(rng, *s) for s in states[:40]]
     searched = 0
     for u, b, lock in states:
-        ref = canonical_form(u, b, lock, kernels="numpy")
-        got = canonical_form(u, b, lock, kernels="numba")
+        ref = canonical_form(u, b, lock, kernels=NUMPY_CANONICAL)
+        got = canonical_form(u, b, lock, kernels=compiled.COMPILED_CANONICAL)
         assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
     # and as batches with a shared cache, where the rows that need the search are many
     by_size: dict[tuple, list] = {}
@@ -43,8 +43,8 @@ def test_canonical_forms_equal_the_reference_on_random_and_symmetric_states():
         by_size.setdefault((s[0].shape, s[1].shape), []).append(s)
     for group in by_size.values():
         u, b, lock = (np.stack([s[i] for s in group]) for i in range(3))
-        ref = canonical_forms(u, b, lock, {}, kernels="numpy")
-        got = canonical_forms(u, b, lock, {}, kernels="numba")
+        ref = canonical_forms(u, b, lock, {}, kernels=NUMPY_CANONICAL)
+        got = canonical_forms(u, b, lock, {}, kernels=compiled.COMPILED_CANONICAL)
         assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
         searched += len(group)
     assert searched == len(states)
@@ -66,7 +66,7 @@ def test_state_memo_batches_equal_the_reference_on_any_layout():
         lock[:, 0] = rng.integers(0, 3, size=n)
         if rng.random() < 0.5:
             u, b = u[:, :, ::2], b[..., 1:] if l > 1 else b
-        ref = canonical_forms(np.ascontiguousarray(u), np.ascontiguousarray(b), lock, {}, kernels="numpy")
+        ref = canonical_forms(np.ascontiguousarray(u), np.ascontiguousarray(b), lock, {}, kernels=NUMPY_CANONICAL)
         for _ in range(2):
             forms, perms = compiled.canonical_batch(u, b, lock, memo)
             assert np.array_equal(forms, ref[0]) and np.array_equal(perms, ref[1])
@@ -94,7 +94,7 @@ def test_pinned_bound_never_exceeds_the_exact_distance():
     every order that keeps the arguments in place; and it is tighter than the profile bound often
     enough to matter."""
     import itertools
-    from groundsym.loss import _profiles, profile_bound
+    from groundsym.neighbourhood import class_profiles, profile_bound
     rng = np.random.default_rng(6)
     tighter = 0
     for _ in range(3000):
@@ -113,7 +113,7 @@ def test_pinned_bound_never_exceeds_the_exact_distance():
             int((u[0][list(p)] != u[1]).sum() + (b[0][np.ix_(p, p)] != b[1]).sum())
             for free in itertools.permutations(range(n_pin, m)) for p in [list(range(n_pin)) + list(free)])
         assert bound <= exact
-        tighter += bound > profile_bound(_profiles(u, b, np.arange(2)), 0, k)[1]
+        tighter += bound > profile_bound(class_profiles(u, b, np.arange(2)), 0, k)[1]
     assert tighter >= 1000, tighter   # 1,806 of 3,000 with this seed
 
 
@@ -132,9 +132,9 @@ def _kept_orders_brute(lock, groups):
 
 
 def test_profiles_equal_the_reference():
-    """Unary counts and sorted out-/in-degrees per binary symbol, as ``loss._profiles`` gives them
-    (in another order of the degree columns, which the profile bound's L1 distance ignores)."""
-    from groundsym.loss import _profiles
+    """Unary counts and sorted out-/in-degrees per binary symbol, as ``neighbourhood.class_profiles``
+    gives them (in another order of the degree columns, which the profile bound's L1 distance ignores)."""
+    from groundsym.neighbourhood import class_profiles
     rng = np.random.default_rng(8)
     for _ in range(200):
         n, m, k, l = (int(rng.integers(1, 6)), int(rng.integers(1, 8)), int(rng.integers(0, 3)),
@@ -142,7 +142,7 @@ def test_profiles_equal_the_reference():
         u = (rng.random((n, m, k)) < 0.4).astype(np.uint8)
         b = (rng.random((n, m, m, l)) < rng.uniform(0.05, 0.6)).astype(np.uint8)
         rows = rng.integers(0, n, int(rng.integers(1, 4)))
-        ref = _profiles(u, b, rows)        # degrees object-major there, symbol-major here: the
+        ref = class_profiles(u, b, rows)        # degrees object-major there, symbol-major here: the
         deg = ref[:, k:].reshape(len(rows), 2, m, l).transpose(0, 1, 3, 2)   # same L1 distances
         assert np.array_equal(classes._profiles_of(u, b, rows), np.concatenate(
             [ref[:, :k], deg.reshape(len(rows), -1)], axis=1))
@@ -160,14 +160,14 @@ def test_bound_heap_pops_in_order_of_bound_then_class():
         size, held, pushed = 0, [], 0
         while pushed < n or size:
             if pushed < n and (size == 0 or rng.random() < 0.6):
-                size = nearest._heap_push(lo, cl, size, bounds[pushed], classes[pushed])
+                size = heap.heap_push(lo, cl, size, bounds[pushed], classes[pushed])
                 held.append((bounds[pushed], int(classes[pushed])))
                 pushed += 1
             else:
                 top = (lo[0], int(cl[0]))
                 assert top == min(held)
                 held.remove(top)
-                size = nearest._heap_pop(lo, cl, size)
+                size = heap.heap_pop(lo, cl, size)
 
 
 def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
@@ -185,7 +185,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         n_pin = int(rng.integers(0, min(m, 2) + 1))
         lock = np.zeros((2, m), dtype=np.int64)
         lock[:, :n_pin] = [2, 1][2 - n_pin:]
-        ucode, ecode = canonical._codes(u, b, lock)
+        ucode, ecode = canonical.state_codes(u, b, lock)
         groups = compiled.twin_groups_row(ucode[0], ecode[0])
         best, first = None, None
         for seq in _kept_orders_brute(list(lock[0]), list(groups)):
@@ -216,7 +216,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
 def test_packed_keys_sort_as_their_bytes():
     """Class keys packed into words group and number classes exactly as the byte rows do
     (locks and labels a byte each, truth values a bit each), on 300 random batches."""
-    from groundsym.loss import group_rows
+    from groundsym.neighbourhood import group_rows
     rng = np.random.default_rng(5)
     for _ in range(300):
         n, m, bits = int(rng.integers(1, 80)), int(rng.integers(1, 8)), int(rng.integers(0, 120))
@@ -242,7 +242,7 @@ def test_packed_keys_sort_as_their_bytes():
 
 def test_grouping_kernel_equals_group_rows():
     """Groups numbered in byte order of the rows, each group's first row its smallest index."""
-    from groundsym.loss import group_rows
+    from groundsym.neighbourhood import group_rows
     rng = np.random.default_rng(4)
     for _ in range(300):
         n, w = int(rng.integers(1, 60)), int(rng.integers(1, 9))
@@ -290,8 +290,8 @@ def _compare_along_search(data, n_unary, n_binary, evals, seed, neighbourhood_ev
         ku, kb = active_columns(u, b)
         u, b = u[..., ku].astype(np.uint8), b[..., kb].astype(np.uint8)
         for lock, label in [(d.lock, d.label), (np.zeros_like(d.lock), np.zeros_like(d.label))]:
-            _neighbourhoods_equal(ref.neighbours(u[d.pre], b[d.pre], lock, label),
-                                  fast.neighbours(u[d.pre], b[d.pre], lock, label))
+            _neighbourhoods_equal(ref.backend.neighbours(u[d.pre], b[d.pre], lock, label),
+                                  fast.backend.neighbours(u[d.pre], b[d.pre], lock, label))
             compared += 1
     return len(fast.log), compared
 

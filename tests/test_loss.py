@@ -15,9 +15,11 @@ import numpy as np
 import pytest
 
 DATA = Path(__file__).resolve().parent / "data"
+from groundsym.backends import new_backend
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.loss import Loss, LossConfig, LossTerms, active_columns, mixture_ll, prepare, width_penalty
+from groundsym.loss import Loss, LossConfig, LossTerms, active_columns, prepare, width_penalty
+from groundsym.mixtures import mixture_ll
 from groundsym.relational import Encoded, naive_state_distance
 from groundsym.symbols import Symbol
 from groundsym.traces import Dataset, Trace, read_traces
@@ -249,7 +251,7 @@ def _check_neighbours_against_enumeration(data, n_unary, n_binary, seed, evaluat
         u = unary_truth(syms[:n_unary], data.features).astype(np.uint8)[data.pre]
         b = binary_truth(syms[n_unary:], data.pairs).astype(np.uint8)[data.pre]
         for lock, label in [(data.lock, data.label), (np.zeros_like(data.lock), np.zeros_like(data.label))]:
-            nb = Loss(data).neighbours(u, b, lock, label)
+            nb = new_backend().neighbours(u, b, lock, label)
 
             def rep(k):
                 i = nb.members[k][0]
@@ -284,8 +286,8 @@ def test_enumerated_neighbours_match_the_naive_enumeration(n_unary, n_binary, ev
     (2, 1, 1, 3), pytest.param(2, 1, 3, 10, marks=pytest.mark.slow)])
 def test_branch_and_bound_neighbours_match_the_naive_enumeration(monkeypatch, n_unary, n_binary, evaluations, queries):
     """7 objects through branch and bound (which serves more than ENUMERATE_MAX objects)."""
-    import groundsym.loss as loss_mod
-    monkeypatch.setattr(loss_mod, "ENUMERATE_MAX", 0)
+    import groundsym.neighbourhood as neighbourhood_mod
+    monkeypatch.setattr(neighbourhood_mod, "ENUMERATE_MAX", 0)
     ds = read_traces(DATA / "tower_16.json")
     if evaluations == 1:   # the fast run: 6 of the 16 traces (a whole pass of branch and bound is slow)
         ds = Dataset(ds.traces[:6], ds.feature_names, ds.primitives, ds.meta)

@@ -151,12 +151,13 @@ def test_nearest_on_scenes():
 
 def test_permuted_words_pack_each_permuted_state():
     """Placing only the set bits gives the same words as packing every permuted state."""
-    from groundsym.relational import _words, all_permutations, permuted_words
+    from groundsym.relational import all_permutations, pack_words, permuted_words
     rng = np.random.default_rng(5)
     for m, k, l, density in [(4, 1, 1, 0.3), (5, 3, 3, 0.5), (6, 2, 2, 0.05), (3, 0, 2, 1.0), (4, 1, 1, 0.0)]:
         q = _random_encoded(rng, m, k, l, density)
         sig = all_permutations(m)
         which = rng.choice(len(sig), size=min(len(sig), 40), replace=False)
-        want = _words(np.stack([np.concatenate([q.unary[s].ravel(), q.binary[s][:, s].ravel()]) for s in sig[which]]))
+        want = pack_words(np.stack([np.concatenate([q.unary[s].ravel(), q.binary[s][:, s].ravel()])
+                                    for s in sig[which]]))
         assert np.array_equal(permuted_words(q, which), want)
         assert permuted_words(q).shape == (len(sig), want.shape[1])

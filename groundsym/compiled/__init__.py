@@ -1,25 +1,32 @@
 """Compiled (numba) kernels of the symbol loss's miss path, each mirroring a numpy reference.
 
 The loss spends its time, on an abstraction it has not seen, in two places: canonical forms of
-every state (colour refinement, :mod:`groundsym.canonical`) and the nearest classes of every lone
-class (bit-parallel enumeration, ``Loss._nearest_enumerated``). Both are loops over a handful of
-objects and a few thousand permutations, which numpy can only vectorise with large temporaries.
-The kernels here compute the *same* integers (64-bit hashes that wrap the same way, the same
-object orders, distances, first minimising permutations), so the loss is bit for bit the same
-with or without them (the nearest classes come from a branch and bound over the orders the
-reference enumerates, cut only where no order can beat the first minimiser the enumeration
-returns); ``tests/test_compiled.py`` checks that over thousands of annealing evaluations. The
-numpy code stays the reference (``Loss(..., kernels="numpy")``).
+every state (colour refinement, :mod:`groundsym.relational.canonical`) and the nearest classes of
+every lone class (bit-parallel enumeration, ``NeighbourhoodEngine.nearest_enumerated`` of
+:mod:`groundsym.neighbourhood`). Both are loops over a handful of objects and a few thousand
+permutations, which numpy can only vectorise with large temporaries. The kernels here compute
+the *same* integers (64-bit hashes that wrap the same way, the same object orders, distances,
+first minimising permutations), so the loss is bit for bit the same with or without them (the
+nearest classes come from a branch and bound over the orders the reference enumerates, cut only
+where no order can beat the first minimiser the enumeration returns); ``tests/test_compiled.py``
+checks that over thousands of annealing evaluations. The numpy code stays the reference
+(``Loss(..., kernels="numpy")``); :mod:`groundsym.backends` chooses between the two, once per loss.
 
-One module per concern, each named after what it mirrors:
+This package builds on :mod:`groundsym.relational` (the hash constants, the canonical forms'
+steps) and nothing above it. One module per concern, each named after what it mirrors:
 
-- :mod:`.canonical`: canonical forms and orders (reference: :mod:`groundsym.canonical`);
-- :mod:`.nearest`: the nearest classes of lone classes (reference: ``Loss._nearest_enumerated``
-  and :mod:`groundsym.relational.enumeration`);
+- :mod:`.canonical`: colour refinement, orders, twins, individualisation (reference:
+  :mod:`groundsym.relational.canonical`; :data:`COMPILED_CANONICAL` is its steps as one object);
+- :mod:`.batch`: canonical forms of a whole batch with a per-state memo (reference:
+  ``relational.canonical.canonical_forms``);
+- :mod:`.nearest`: the nearest classes of lone classes (reference:
+  ``NeighbourhoodEngine.nearest_enumerated`` and :mod:`groundsym.relational.enumeration`), with
+  :mod:`.heap` ordering their candidates;
 - :mod:`.classes`: one whole neighbourhood pass, classes and their profiles (reference:
-  ``Loss.neighbours``, ``loss.group_rows``, ``loss._profiles``);
+  ``NeighbourhoodEngine.neighbours``, ``neighbourhood.group_rows``, ``neighbourhood.class_profiles``);
 - :mod:`.mixtures`: the transition and reward terms' entries and mixtures (reference:
-  ``loss.transition_entries``, ``loss.reward_entries``, ``loss.mixture_ll``);
+  ``mixtures.transition_entries``, ``mixtures.reward_entries``, ``mixtures.mixture_ll`` of
+  :mod:`groundsym.mixtures`);
 - :mod:`.truth`: symbols' truth on the data (reference: ``Symbol.holds``);
 - :mod:`.base`: numba itself and what the others share.
 
@@ -32,17 +39,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..relational.canonical import canonical_forms
 from .base import AVAILABLE
-from .canonical import (canonical_batch, colour_order, colours, individualise, needing_search, new_state_memo,
-                        refine_row, twin_groups_row)
+from .batch import canonical_batch, new_state_memo
+from .canonical import (COMPILED_CANONICAL, colour_order, colours, individualise, needing_search, refine_row,
+                        twin_groups_row)
 from .classes import group_keys, neighbourhood, new_intern
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import nearest_classes, new_memo
 from .truth import rbf_holds
 
 __all__ = [
-    "AVAILABLE", "canonical_batch", "colour_order", "colours", "group_keys", "individualise", "mixture_sums",
-    "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
+    "AVAILABLE", "COMPILED_CANONICAL", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
+    "mixture_sums", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
     "rbf_holds", "refine_row", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
     "twin_groups_row", "warm_up",
 ]
@@ -80,11 +89,11 @@ def warm_up() -> float:
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), new_memo())
-        from ..canonical import canonical_forms    # a directed 4-cycle needs individualisation
-        cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)
+        cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):
             cyc[0, i, (i + 1) % 4, 0] = 1
-        canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64), kernels="numba")
+        canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64),
+                        kernels=COMPILED_CANONICAL)
         z4 = np.zeros((1, 4), dtype=np.int64)
         canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, new_state_memo())
     return time.perf_counter() - t0

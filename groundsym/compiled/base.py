@@ -1,5 +1,5 @@
 """What every compiled kernel shares: numba itself (or a stand-in where it cannot install), the
-hash constants of :mod:`groundsym.canonical`, and four small helpers (a 64-bit mixer, row
+hash constants of :mod:`groundsym.relational.hashing`, and four small helpers (a 64-bit mixer, row
 equality, a popcount, an insertion step)."""
 
 from __future__ import annotations
@@ -19,18 +19,18 @@ except ImportError:  # pragma: no cover - exercised only where numba cannot inst
     def njit(*args, **kwargs):  # type: ignore[no-redef]
         return (lambda f: f) if not (len(args) == 1 and callable(args[0])) else args[0]
 
-from ..canonical import _M1, _M2, _P
+from ..relational.hashing import HASH_PRIMES, MIX_M1, MIX_M2
 
-M1, M2 = np.uint64(_M1), np.uint64(_M2)
-P0, P1, P2, P3, P4, P5 = (np.uint64(p) for p in _P[:6])
+M1, M2 = np.uint64(MIX_M1), np.uint64(MIX_M2)
+P0, P1, P2, P3, P4, P5 = (np.uint64(p) for p in HASH_PRIMES[:6])
 INF = np.inf
 LN2 = math.log(2.0)   # as symbols.LN2
 
 
 
 @njit(cache=True, inline="always")
-def _mix(x):
-    """canonical._mix on one uint64 (multiplication wraps modulo 2^64, as in numpy)."""
+def mix(x):
+    """relational.hashing.mix on one uint64 (multiplication wraps modulo 2^64, as in numpy)."""
     x = x ^ (x >> np.uint64(33))
     x = x * M1
     x = x ^ (x >> np.uint64(33))
@@ -39,7 +39,8 @@ def _mix(x):
 
 
 @njit(cache=True)
-def _equal(a, b):
+def arrays_equal(a, b):
+    """Two 1-D arrays of the same length hold the same values (memo hits are checked by it)."""
     for i in range(len(a)):
         if a[i] != b[i]:
             return False
@@ -47,7 +48,8 @@ def _equal(a, b):
 
 
 @njit(cache=True, inline="always")
-def _popcount(x):
+def popcount(x):
+    """The set bits of a uint64 (the SWAR count: no hardware instruction needed)."""
     x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
     x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
     x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
@@ -55,7 +57,7 @@ def _popcount(x):
 
 
 @njit(cache=True, inline="always")
-def _insert_sorted(row, n, v):
+def insert_sorted(row, n, v):
     """Insert ``v`` into ``row[:n]``, sorted ascending, shifting larger values right (an
     insertion sort step: for the handful of degrees per class, without allocating)."""
     t = n

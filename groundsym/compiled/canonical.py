@@ -1,13 +1,13 @@
-"""Canonical forms of states, compiled: the colour refinement, object order and
-individualisation-refinement of :mod:`groundsym.canonical` (their numpy reference), the same
-64-bit hashes wrapping the same way, and a per-state memo for whole batches
-(:func:`canonical_batch`)."""
+"""Canonical forms of states, compiled: the colour refinement, object order, twin test and
+individualisation-refinement of :mod:`groundsym.relational.canonical` (their numpy reference),
+the same 64-bit hashes wrapping the same way; as :data:`COMPILED_CANONICAL`, the steps
+``canonical_forms`` takes. Whole batches with a per-state memo: :mod:`.batch`."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import P0, P1, P2, P3, P4, P5, _equal, _mix, njit, numba
+from .base import P0, P1, P2, P3, P4, P5, arrays_equal, mix, njit
 
 
 @njit(cache=True)
@@ -27,7 +27,7 @@ def colours(ucode, ecode):
     col = np.empty((n, m), dtype=np.uint64)
     for r in range(n):
         for i in range(m):
-            col[r, i] = _mix(np.uint64(ucode[r, i]) + P0)
+            col[r, i] = mix(np.uint64(ucode[r, i]) + P0)
     if m < 2:
         return col
     for r in range(n):
@@ -50,8 +50,8 @@ def refine_row(col, ecode):
                 if j == i:
                     continue
                 c = col[j]
-                nb += _mix(c * P3 + np.uint64(ecode[i, j]) * P1 + _mix(np.uint64(ecode[j, i]) * P2 + c))
-            new[i] = _mix(col[i] * P4 + nb)
+                nb += mix(c * P3 + np.uint64(ecode[i, j]) * P1 + mix(np.uint64(ecode[j, i]) * P2 + c))
+            new[i] = mix(col[i] * P4 + nb)
         now = _n_distinct(new)
         if now <= classes:
             break
@@ -63,7 +63,7 @@ def refine_row(col, ecode):
 
 @njit(cache=True)
 def colour_order(col, lock):
-    """canonical._colour_order: per row, objects by descending lock, then colour, then index."""
+    """canonical.colour_order: per row, objects by descending lock, then colour, then index."""
     n, m = col.shape
     perms = np.empty((n, m), dtype=np.int64)
     for r in range(n):
@@ -84,12 +84,13 @@ def colour_order(col, lock):
 
 
 @njit(cache=True)
-def _order_row(col, lock):
+def order_row(col, lock):
+    """:func:`colour_order` of one state: (M,) its objects in canonical order."""
     return colour_order(col.reshape(1, -1), lock.reshape(1, -1))[0]
 
 
 @njit(cache=True)
-def _encode_row(unary, binary, lock, perm):
+def encode_row(unary, binary, lock, perm):
     """canonical.encode_rows of one state in the order ``perm``: locks, unary bits, binary bits."""
     m, k = unary.shape
     l = binary.shape[2]
@@ -143,7 +144,7 @@ def _target(col, perm, groups):
 
 @njit(cache=True)
 def _individual_colour(col, old):
-    new = _mix(old ^ P5)
+    new = mix(old ^ P5)
     while True:
         clash = False
         for c in col:
@@ -152,7 +153,7 @@ def _individual_colour(col, old):
                 break
         if not clash:
             return new
-        new = _mix(new + np.uint64(1))
+        new = mix(new + np.uint64(1))
 
 
 @njit(cache=True)
@@ -213,20 +214,20 @@ def individualise(unary, binary, lock, ecode, groups, col0):
     entering = True
     while depth >= 0:
         if entering:
-            perm = _order_row(cols[depth], lock)
+            perm = order_row(cols[depth], lock)
             cell = _target(cols[depth], perm, groups)
             if len(cell) == 0:                       # a leaf
-                code = _encode_row(unary, binary, lock, perm)
+                code = encode_row(unary, binary, lock, perm)
                 this_is_first = not have_first
                 if this_is_first:
                     first, first_perm = code, perm
                     have_first = True
-                elif _equal(code, first):
+                elif arrays_equal(code, first):
                     autos, n_autos = _add_automorphism(autos, n_autos, perm, first_perm)
                 if len(best) == 0 or _less(code, best):
                     best, best_perm = code, perm
                     best_is_first = this_is_first
-                elif _equal(code, best) and not best_is_first:
+                elif arrays_equal(code, best) and not best_is_first:
                     autos, n_autos = _add_automorphism(autos, n_autos, perm, best_perm)
                 depth -= 1
                 entering = False
@@ -312,7 +313,7 @@ def twin_groups_row(ucode, ecode):
 
 @njit(cache=True)
 def needing_search(ucode, ecode, col, perms):
-    """canonical._needing_search: rows where two objects of one colour are not twins, and the
+    """canonical.needing_search: rows where two objects of one colour are not twins, and the
     twin groups of every row (filled for rows with a colour tie; others: identity)."""
     n, m = col.shape
     need = np.zeros(n, dtype=np.bool_)
@@ -337,142 +338,19 @@ def needing_search(ucode, ecode, col, perms):
 
 
 @njit(cache=True)
-def _hash_bytes(x):
-    """A 63-bit hash of a byte row, eight bytes per mixing step (memo keys; hits are checked)."""
-    h = np.uint64(0xCBF29CE484222325) ^ np.uint64(len(x))
-    n = len(x)
-    i = 0
-    while i < n:
-        v = np.uint64(0)
-        for j in range(min(8, n - i)):
-            v |= np.uint64(x[i + j]) << np.uint64(8 * j)
-        h = _mix(h ^ v)
-        i += 8
-    return np.int64(h >> np.uint64(1))
-
-
-@njit(cache=True)
-def _pack_state(unary, binary, lock, raw):
-    """A small state's own encoding as two 64-bit words, written into ``raw`` (16 bytes), and their hash.
-
-    For M <= 7 objects whose M*K + M*M*L bits fit a word: the bits in one word, the locks (a byte
-    each) and the shape (K, L) in the other, so equal words mean equal states of the same shape.
-    Cheaper than :func:`_encode_row` and :func:`_hash_bytes` on the memo's hit path."""
-    m, k = unary.shape
-    l = binary.shape[2]
-    bits = np.uint64(0)
-    j = np.uint64(0)
-    for i in range(m):
-        for a in range(k):
-            if unary[i, a]:
-                bits |= np.uint64(1) << j
-            j += np.uint64(1)
-    for i in range(m):
-        for i2 in range(m):
-            for a in range(l):
-                if binary[i, i2, a]:
-                    bits |= np.uint64(1) << j
-                j += np.uint64(1)
-    meta = np.uint64(k * 16 + l) << np.uint64(56)
-    for i in range(m):
-        meta |= np.uint64(lock[i] & 255) << np.uint64(8 * i)
-    for t in range(8):
-        raw[t] = np.uint8((bits >> np.uint64(8 * t)) & np.uint64(255))
-        raw[8 + t] = np.uint8((meta >> np.uint64(8 * t)) & np.uint64(255))
-    return np.int64(_mix(bits ^ _mix(meta + P1)) >> np.uint64(1))
-
-
-@njit(cache=True)
-def canonical_batch(unary, binary, lock, memo):
-    """canonical.canonical_forms compiled whole, with a per-state memo.
-
-    A state's form and order are functions of the state alone, so they are kept in ``memo`` (a
-    numba typed dict: hash of the state's own encoding -> its encoding, form and order, checked
-    byte for byte on every hit; a hash collision is computed afresh and not stored). The object
-    and edge codes (``canonical.object_codes``/``codes``) are computed for the states the memo
-    does not hold only. Returns (forms (N, R) uint8, perms (N, M) int64).
-    """
-    n, m = lock.shape
-    k = unary.shape[2]
-    l = binary.shape[3]
-    r_len = m + m * k + m * m * l
-    forms = np.empty((n, r_len), dtype=np.uint8)
-    perms = np.empty((n, m), dtype=np.int64)
-    ident = np.arange(m)
-    packable = m <= 7 and m * k + m * m * l <= 64 and k < 16 and l < 16
-    r_key = 16 if packable else r_len
-    raw = np.empty(r_key, dtype=np.uint8)
-    for i in range(n):
-        if packable:
-            h = _pack_state(unary[i], binary[i], lock[i], raw)
-        else:
-            raw = _encode_row(unary[i], binary[i], lock[i], ident)
-            h = _hash_bytes(raw)
-        if h in memo:
-            entry = memo[h]
-            if len(entry) == r_key + r_len + m and _equal(entry[:r_key], raw):
-                forms[i] = entry[r_key:r_key + r_len]
-                for p in range(m):
-                    perms[i, p] = entry[r_key + r_len + p]
-                continue
-            store = False
-        else:
-            store = True
-        ucode, ecode = _codes_row(unary[i], binary[i], lock[i])
-        col = np.empty(m, dtype=np.uint64)
-        for x in range(m):
-            col[x] = _mix(np.uint64(ucode[x]) + P0)
-        refine_row(col, ecode)
-        perm = _order_row(col, lock[i])
-        need = False
-        groups = ident
-        if m >= 2:
-            tie = False
-            for c in range(m - 1):
-                if col[perm[c]] == col[perm[c + 1]]:
-                    tie = True
-                    break
-            if tie:
-                groups = twin_groups_row(ucode, ecode)
-                for c in range(m - 1):
-                    if col[perm[c]] == col[perm[c + 1]] and groups[perm[c]] != groups[perm[c + 1]]:
-                        need = True
-                        break
-        if need:
-            form, perm = individualise(unary[i], binary[i], lock[i], ecode, groups, col)
-        else:
-            form = _encode_row(unary[i], binary[i], lock[i], perm)
-        forms[i] = form
-        perms[i] = perm
-        if store:
-            entry = np.empty(r_key + r_len + m, dtype=np.uint8)
-            entry[:r_key] = raw
-            entry[r_key:r_key + r_len] = form
-            for p in range(m):
-                entry[r_key + r_len + p] = np.uint8(perm[p])
-            memo[h] = entry
-    return forms, perms
-
-
-def new_state_memo():
-    """An empty per-state memo for :func:`canonical_batch` (int64 -> uint8[:])."""
-    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.uint8[:])
-
-
-@njit(cache=True)
-def _codes(u, b, lock):
+def state_codes(u, b, lock):
     """canonical.object_codes and canonical.codes of a batch: (N, M) object codes, (N, M, M) edge codes."""
     n, m = lock.shape
     ucode = np.empty((n, m), dtype=np.int64)
     ecode = np.empty((n, m, m), dtype=np.int64)
     for i in range(n):
-        ucode[i], ecode[i] = _codes_row(u[i], b[i], lock[i])
+        ucode[i], ecode[i] = state_codes_row(u[i], b[i], lock[i])
     return ucode, ecode
 
 
 @njit(cache=True)
-def _codes_row(u, b, lock):
-    """:func:`_codes` of one state (any memory layout): (M,) object codes, (M, M) edge codes."""
+def state_codes_row(u, b, lock):
+    """:func:`state_codes` of one state (any memory layout): (M,) object codes, (M, M) edge codes."""
     m, k = u.shape
     l = b.shape[2]
     ucode = np.empty(m, dtype=np.int64)
@@ -488,3 +366,27 @@ def _codes_row(u, b, lock):
                 e += np.int64(b[x, y, a]) << np.int64(a)
             ecode[x, y] = e
     return ucode, ecode
+
+
+class _CompiledCanonical:
+    """The steps of ``relational.canonical.canonical_forms`` compiled (its ``CanonicalKernels``):
+    the same colours, orders, twin groups and smallest leaves as the numpy reference."""
+
+    def colours(self, ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
+        return colours(ucode, ecode)
+
+    def colour_order(self, col: np.ndarray, lock: np.ndarray) -> np.ndarray:
+        return colour_order(col, lock.astype(np.int64, copy=False))
+
+    def needing_search(self, ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
+                       perms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        need, groups = needing_search(ucode, ecode, col, perms)
+        return np.flatnonzero(need), groups[need]
+
+    def individualise(self, unary: np.ndarray, binary: np.ndarray, lock: np.ndarray, ecode: np.ndarray,
+                      groups: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return individualise(unary, binary, lock.astype(np.int64, copy=False), ecode, groups, col)
+
+
+#: ``canonical_forms(..., kernels=COMPILED_CANONICAL)``: canonical forms with these kernels.
+COMPILED_CANONICAL = _CompiledCanonical()

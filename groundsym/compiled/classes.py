@@ -1,13 +1,15 @@
-"""One neighbourhood pass compiled whole (:func:`neighbourhood`, the reference is
-``Loss.neighbours``): canonical forms, classes of equal keys (``loss.group_rows``), class
-profiles (``loss._profiles``), interned class keys, then the nearest classes."""
+"""One neighbourhood pass compiled whole (:func:`neighbourhood`; the reference is
+``NeighbourhoodEngine.neighbours`` of :mod:`groundsym.neighbourhood`): canonical forms, classes of
+equal keys (``neighbourhood.group_rows``), class profiles (``neighbourhood.class_profiles``),
+interned class keys, then the nearest classes."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import _equal, _insert_sorted, _mix, njit, numba
-from .canonical import _codes, canonical_batch
+from .base import arrays_equal, insert_sorted, mix, njit, numba
+from .batch import canonical_batch
+from .canonical import state_codes
 from .nearest import nearest_classes
 
 
@@ -22,7 +24,7 @@ def _row_less(keys, i, j):
 
 @njit(cache=True)
 def group_keys(keys):
-    """loss.group_rows compiled: (first row of each group, group id per row), groups numbered in
+    """neighbourhood.group_rows compiled: (first row of each group, group id per row), groups numbered in
     sorted (byte) order of the rows, a group's first row its smallest index."""
     n = keys.shape[0]
     order = np.arange(n)
@@ -56,7 +58,7 @@ def group_keys(keys):
     g = -1
     for t in range(n):
         r = order[t]
-        if t == 0 or not _equal(keys[r], keys[order[t - 1]]):
+        if t == 0 or not arrays_equal(keys[r], keys[order[t - 1]]):
             g += 1
             first[g] = r
         cls[r] = g
@@ -65,7 +67,7 @@ def group_keys(keys):
 
 @njit(cache=True)
 def _profiles_of(u, b, rows):
-    """loss._profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol
+    """neighbourhood.class_profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol
     (symbol by symbol, where the reference interleaves the symbols: the profile bound is an L1
     distance, which the order of the columns does not change)."""
     n = len(rows)
@@ -84,7 +86,7 @@ def _profiles_of(u, b, rows):
                     d = 0
                     for y in range(m):
                         d += b[s, x, y, a] if side == 0 else b[s, y, x, a]
-                    _insert_sorted(out[r, at:at + m], x, d)     # no allocation per row
+                    insert_sorted(out[r, at:at + m], x, d)     # no allocation per row
     return out
 
 
@@ -121,7 +123,7 @@ def _hash_words(x):
     """A 63-bit hash of a row of 64-bit words (memo keys; hits are checked)."""
     h = np.uint64(0xCBF29CE484222325) ^ np.uint64(len(x))
     for i in range(len(x)):
-        h = _mix(h ^ x[i])
+        h = mix(h ^ x[i])
     return np.int64(h >> np.uint64(1))
 
 
@@ -132,7 +134,7 @@ def _intern(row, table, store):
     h = _hash_words(row)
     while h in table:
         i = table[h]
-        if len(store[i]) == len(row) and _equal(store[i], row):
+        if len(store[i]) == len(row) and arrays_equal(store[i], row):
             return i
         h += 1
     i = len(store)
@@ -143,13 +145,14 @@ def _intern(row, table, store):
 
 @njit(cache=True)
 def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
-    """Loss.neighbours compiled whole (canonical forms, classes, nearest classes of lone classes).
+    """NeighbourhoodEngine.neighbours compiled whole (canonical forms, classes, nearest classes of
+    lone classes).
 
     ``u`` (N, M, K), ``b`` (N, M, M, L), ``lock`` (N, M) int64, ``label`` (N,) int64 (< 256).
     ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
     (canonical form and primitive, :func:`_packed_keys`) for the pair ``memo`` of
-    :func:`nearest_classes`. Returns the fields of ``loss.Neighbourhood`` (cls, perms, lone, best,
-    hit query, class, sigma) and the sizes of the state memo, the interned keys and the pair memo
+    :func:`nearest_classes`. Returns the fields of ``neighbourhood.Neighbourhood`` (cls, perms, lone,
+    best, hit query, class, sigma) and the sizes of the state memo, the interned keys and the pair memo
     (``len`` of a typed container called from Python compiles on first use, seconds, and costs a
     dispatch every time).
     """
@@ -188,7 +191,7 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
         labels[c] = label[f]
         ids[c] = _intern(keys[f], table, store)
     profile = _profiles_of(u, b, first)
-    rucode, recode = _codes(ru, rb, rl)
+    rucode, recode = state_codes(ru, rb, rl)
     best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo)
     return cls, perms, lone, best, hq, hc, hs, (len(state_memo), len(store), len(memo))
 

@@ -1,6 +1,7 @@
 """The two predictive terms' mixtures, compiled: which transitions predict which and with how
-many mispredicted literals or which reward (``loss.transition_entries``, ``loss.reward_entries``,
-their numpy reference), and the float steps of ``loss.mixture_ll`` around numpy's exponential."""
+many mispredicted literals or which reward (``transition_entries`` and ``reward_entries`` of
+:mod:`groundsym.mixtures`, their numpy reference), and the float steps of its ``mixture_ll``
+around numpy's exponential."""
 
 from __future__ import annotations
 
@@ -55,7 +56,7 @@ def _successor_mismatch(u, b, post, perms, i, j):
 
 @njit(cache=True)
 def transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes):
-    """loss.transition_entries (the numpy reference) compiled: the same entries in the same order."""
+    """mixtures.transition_entries (the numpy reference) compiled: the same entries in the same order."""
     n, m = perms.shape
     k_u = u.shape[2]
     l_b = b.shape[3]
@@ -188,7 +189,7 @@ def _hit_ranges(n_lone, hq, n_cls, lone):
 
 @njit(cache=True)
 def reward_entries(cls, lone, hq, hc):
-    """loss.reward_entries (the numpy reference) compiled: the same entries in the same order,
+    """mixtures.reward_entries (the numpy reference) compiled: the same entries in the same order,
     written item by item (partners in increasing order) instead of sorted afterwards."""
     n = len(cls)
     order, start = _class_members(cls)
@@ -222,7 +223,7 @@ def reward_entries(cls, lone, hq, hc):
 
 @njit(cache=True)
 def _top_and_diff(item, lp, n):
-    """First half of loss.mixture_ll: per item the largest log-probability, per entry its distance to it."""
+    """First half of mixtures.mixture_ll: per item the largest log-probability, per entry its distance to it."""
     top = np.full(n, -np.inf)
     for t in range(len(item)):
         if lp[t] > top[item[t]]:
@@ -235,7 +236,7 @@ def _top_and_diff(item, lp, n):
 
 @njit(cache=True)
 def transition_mixture(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes, log_eps, log_ok, n_lit):
-    """:func:`transition_entries` and the float steps of loss.mixture_ll before the exponential:
+    """:func:`transition_entries` and the float steps of mixtures.mixture_ll before the exponential:
     (item, weight, lp - top per entry, top per item). The caller takes ``np.exp`` (numpy's, as the
     reference does) and finishes with :func:`mixture_sums`."""
     item, mis, weight = transition_entries(u, b, pre, post, perms, cls, lone, hq, hc, hs, changes)
@@ -261,7 +262,7 @@ def reward_mixture(cls, lone, hq, hc, reward, c0, two_s2):
 
 @njit(cache=True)
 def mixture_sums(item, e, weight, n):
-    """Second half of loss.mixture_ll: per item the weighted sum of ``e`` and of the weights,
+    """Second half of mixtures.mixture_ll: per item the weighted sum of ``e`` and of the weights,
     accumulated in entry order (as ``np.add.at`` does)."""
     acc = np.zeros(n)
     cnt = np.zeros(n)

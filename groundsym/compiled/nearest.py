@@ -1,8 +1,9 @@
-"""The nearest classes of every lone class, compiled: ``Loss._nearest_enumerated`` and the
-bit-parallel enumeration of :mod:`groundsym.relational.enumeration` (their numpy reference), as a
-branch and bound over the same orders in the same order (:func:`_pair_distance`), cut where no
-order can beat the first minimiser the enumeration returns; candidates visited in order of a
-lower bound (:func:`nearest_classes`), pairs memoised across calls."""
+"""The nearest classes of every lone class, compiled: ``NeighbourhoodEngine.nearest_enumerated``
+(:mod:`groundsym.neighbourhood`) and the bit-parallel enumeration of
+:mod:`groundsym.relational.enumeration` (their numpy reference), as a branch and bound over the
+same orders in the same order (:func:`_pair_distance`), cut where no order can beat the first
+minimiser the enumeration returns; candidates visited in order of a lower bound
+(:func:`nearest_classes`, through :mod:`.heap`), pairs memoised across calls."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import math
 
 import numpy as np
 
-from .base import INF, _insert_sorted, _popcount, njit, numba
+from .base import INF, insert_sorted, njit, numba, popcount
 from .canonical import twin_groups_row
+from .heap import heap_pop, heap_push
 
 
 _SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
@@ -69,7 +71,7 @@ def _pinned_tables(unary, binary, lock):
                 n_free = 0
                 for p in range(m):
                     if not pin[c, p]:
-                        _insert_sorted(psorted[c, a, d], n_free, pdeg[c, p, a, d])
+                        insert_sorted(psorted[c, a, d], n_free, pdeg[c, p, a, d])
                         n_free += 1
     return pinned, pin, pu, pcount, pdeg, psorted
 
@@ -94,7 +96,7 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
         if not pin[q, p]:
             n_free += 1
             continue
-        s += float(_popcount(pu[q, p] ^ pu[c, p]))
+        s += float(popcount(pu[q, p] ^ pu[c, p]))
         for y in range(m):
             if pin[q, y]:
                 for a in range(l):
@@ -135,7 +137,7 @@ def _object_masks(unary, binary):
 
 @njit(cache=True, inline="always")
 def _pc(x):
-    return np.int64(_popcount(np.uint64(x)))
+    return np.int64(popcount(np.uint64(x)))
 
 
 @njit(cache=True, inline="always")
@@ -246,55 +248,13 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     return best, best_v
 
 
-@njit(cache=True, inline="always")
-def _heap_before(lo, c, i, j):
-    return lo[i] < lo[j] or (lo[i] == lo[j] and c[i] < c[j])
-
-
-@njit(cache=True)
-def _heap_push(lo, c, n, v, x):
-    """Push (v, x) on the binary min-heap ``lo``/``c`` of ``n`` entries, ordered by (lo, c)."""
-    i = n
-    lo[i] = v
-    c[i] = x
-    while i > 0:
-        p = (i - 1) >> 1
-        if not _heap_before(lo, c, i, p):
-            break
-        lo[i], lo[p] = lo[p], lo[i]
-        c[i], c[p] = c[p], c[i]
-        i = p
-    return n + 1
-
-
-@njit(cache=True)
-def _heap_pop(lo, c, n):
-    """Remove the top of the heap (read it at index 0 before); returns the new size."""
-    n -= 1
-    lo[0] = lo[n]
-    c[0] = c[n]
-    i = 0
-    while True:
-        a = 2 * i + 1
-        if a >= n:
-            break
-        if a + 1 < n and _heap_before(lo, c, a + 1, a):
-            a += 1
-        if not _heap_before(lo, c, a, i):
-            break
-        lo[i], lo[a] = lo[a], lo[i]
-        c[i], c[a] = c[a], c[i]
-        i = a
-    return n
-
-
 @njit(cache=True)
 def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
-    """Loss._nearest_enumerated for every lone class: exact nearest classes, all ties.
+    """NeighbourhoodEngine.nearest_enumerated for every lone class: exact nearest classes, all ties.
 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
-    canonical order; ``profile`` (C, P) as ``loss._profiles``; ``lone`` (Q,) class indices;
-    ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
+    canonical order; ``profile`` (C, P) as ``neighbourhood.class_profiles``; ``lone`` (Q,) class
+    indices; ``ucode``/``ecode`` the representatives' object and edge codes (for their twin groups).
     Candidates are visited in order of their lower bound (the profile bound, raised by
     :func:`_pinned_bound` where the query's arguments are pinned), ties by class, and the visits
     stop at the first bound above the best distance; the pinned part is computed only for the
@@ -396,7 +356,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                                or (heap_lo[0] == cb[nxt_c] and heap_c[0] < cand[nxt_c])):
                 c = heap_c[0]
                 lo = heap_lo[0]
-                n_heap = _heap_pop(heap_lo, heap_c, n_heap)
+                n_heap = heap_pop(heap_lo, heap_c, n_heap)
             elif nxt_c < n_c:
                 c = cand[nxt_c]
                 lo = cb[nxt_c]
@@ -405,7 +365,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     break
                 if pinned[q]:
                     lo = max(lo, _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m))
-                    n_heap = _heap_push(heap_lo, heap_c, n_heap, lo, c)
+                    n_heap = heap_push(heap_lo, heap_c, n_heap, lo, c)
                     continue
                 # no pinned part: the profile bound is the whole bound, and the heap stays empty
             else:

@@ -31,22 +31,25 @@ may be matched only when their locks are equal, which is how an action constrain
 
 One concern per module: :mod:`.encoding` (the arrays and shared constants), :mod:`.branch_and_bound`
 (the exact symbolic distance), :mod:`.enumeration` (the bit-parallel enumeration up to
-:data:`ENUMERATE_MAX` objects, and the naive reference), :mod:`.scenes` (continuous scenes) and
-:mod:`.neighbours` (the public symbolic API). The compiled kernels of the loss that mirror the
-enumeration live in :mod:`groundsym.compiled`. Everything is importable from this package.
+:data:`ENUMERATE_MAX` objects, and the naive reference), :mod:`.canonical` (canonical forms:
+isomorphic states, equal encodings), :mod:`.hashing` (the 64-bit hashing those refine colours
+with), :mod:`.scenes` (continuous scenes) and :mod:`.neighbours` (the public symbolic API). The
+compiled kernels of the loss that mirror the enumeration and the canonical forms live in
+:mod:`groundsym.compiled`, which builds on this package (never the other way round). Everything
+is importable from this package.
 """
 
-from ..canonical import canonical_forms, twin_groups_of
 from .branch_and_bound import exact_state_distance, permutation_cost, root_bounds, twin_groups
+from .canonical import canonical_forms, twin_groups_of
 from .encoding import INF, Encoded, encode_state
-from .enumeration import (ENUMERATE_MAX, _words, all_permutations, naive_state_distance,
-                          permutation_positions, permuted_words)
+from .enumeration import (ENUMERATE_MAX, all_permutations, naive_state_distance, pack_words, permutation_positions,
+                          permuted_words)
 from .neighbours import Neighbours, count_bound, nearest, state_distance
 from .scenes import naive_scene_distance, scene_distance
 
 __all__ = [
-    "ENUMERATE_MAX", "INF", "Encoded", "Neighbours", "_words", "all_permutations", "canonical_forms", "count_bound",
-    "encode_state", "exact_state_distance", "naive_scene_distance", "naive_state_distance", "nearest",
+    "ENUMERATE_MAX", "INF", "Encoded", "Neighbours", "all_permutations", "canonical_forms", "count_bound",
+    "encode_state", "exact_state_distance", "naive_scene_distance", "naive_state_distance", "nearest", "pack_words",
     "permutation_cost", "permutation_positions", "permuted_words", "root_bounds", "scene_distance",
     "state_distance", "twin_groups", "twin_groups_of",
 ]

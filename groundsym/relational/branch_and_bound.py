@@ -9,8 +9,8 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..canonical import twin_groups_of
-from .encoding import Encoded, INF, _FORBID
+from .canonical import twin_groups_of
+from .encoding import FORBIDDEN_COST, INF, Encoded
 
 
 def permutation_cost(a: Encoded, b: Encoded, perm: np.ndarray) -> float:
@@ -37,7 +37,7 @@ class _Search:
         self.eb = b.binary.astype(np.int16)
         unary = (a.unary[:, None, :] != b.unary[None, :, :]).sum(-1).astype(float)
         self.forbid = a.lock[:, None] != b.lock[None, :]
-        self.c0 = unary + np.where(self.forbid, _FORBID, 0.0)
+        self.c0 = unary + np.where(self.forbid, FORBIDDEN_COST, 0.0)
         self.const = float(np.sum(a.nullary != b.nullary))
         self.groups = twin_groups(b) if groups is None else groups
         self.best = INF
@@ -97,8 +97,8 @@ class _Search:
         root = self.bound_matrix(list(range(m)), list(range(m)), [])
         r, c = linear_sum_assignment(root)
         lb = self.const + float(root[r, c].sum())
-        if lb >= _FORBID or lb >= self.threshold:
-            return (INF if lb >= _FORBID else lb), None
+        if lb >= FORBIDDEN_COST or lb >= self.threshold:
+            return (INF if lb >= FORBIDDEN_COST else lb), None
         perm = np.empty(m, dtype=np.int64)
         perm[r] = c
         self.best, self.best_perm = self.full_cost(perm), perm
@@ -188,7 +188,7 @@ def root_bounds(a: Encoded, cands: Sequence[Encoded]) -> tuple[np.ndarray, np.nd
     cost = np.abs(au[None, :, None, :] - cu[:, None, :, :]).sum(-1).astype(float)
     do = np.abs(ab.sum(1)[None, :, None, :] - cb.sum(2)[:, None, :, :]).sum(-1)
     di = np.abs(ab.sum(0)[None, :, None, :] - cb.sum(1)[:, None, :, :]).sum(-1)
-    cost += 0.5 * (do + di) + np.where(a.lock[None, :, None] != cl[:, None, :], _FORBID, 0.0)
+    cost += 0.5 * (do + di) + np.where(a.lock[None, :, None] != cl[:, None, :], FORBIDDEN_COST, 0.0)
     const = np.array([float(np.sum(a.nullary != c.nullary)) for c in cands])
     lb, perms = np.empty(n), np.empty((n, m), dtype=np.int64)
     for k in range(n):
@@ -198,6 +198,6 @@ def root_bounds(a: Encoded, cands: Sequence[Encoded]) -> tuple[np.ndarray, np.nd
     rows = np.arange(n)[:, None]
     ub = (const + np.abs(au[None] - cu[rows, perms]).sum((1, 2))
           + np.abs(ab[None] - cb[rows[:, :, None], perms[:, :, None], perms[:, None, :]]).sum((1, 2, 3)))
-    bad = (lb >= _FORBID) | np.array([c.label != a.label for c in cands])
+    bad = (lb >= FORBIDDEN_COST) | np.array([c.label != a.label for c in cands])
     lb[bad], ub[bad] = INF, INF
     return lb, ub.astype(float)

@@ -12,7 +12,7 @@ import numpy as np
 from ..logic import Atom
 
 INF = math.inf
-_FORBID = 1e9  # cost of a forbidden match inside a linear assignment
+FORBIDDEN_COST = 1e9  # cost of a forbidden match (other locks) inside a linear assignment
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,7 +34,9 @@ class Encoded:
                 f"nullary={int(self.nullary.sum())}, label={self.label})")
 
 
-def _lock_vector(objects: Sequence[str], action: Atom | None, size: int) -> np.ndarray:
+def lock_vector(objects: Sequence[str], action: Atom | None, size: int) -> np.ndarray:
+    """Per object (padded to ``size``): the bit mask of the action argument positions it fills.
+    Symbolic states and continuous scenes pin their arguments by it alike."""
     lock = np.zeros(size, dtype=np.int64)
     if action is not None:
         index = {o: i for i, o in enumerate(objects)}
@@ -75,10 +77,11 @@ def encode_state(state: frozenset, objects: Sequence[str], predicates: dict[str,
     label = -1
     if action is not None:
         label = (labels or {action.predicate: 0})[action.predicate]
-    return Encoded(unary, binary, nullary, _lock_vector(objects, action, size), label)
+    return Encoded(unary, binary, nullary, lock_vector(objects, action, size), label)
 
 
-def _predicates_of(*states: frozenset) -> dict[str, int]:
+def predicates_of(*states: frozenset) -> dict[str, int]:
+    """Name -> arity of every predicate the states' atoms use (ValueError on two arities)."""
     preds: dict[str, int] = {}
     for s in states:
         for a in s:

@@ -33,7 +33,7 @@ def permutation_positions(m: int) -> np.ndarray:
     return _POSITIONS[m]
 
 
-def _words(bits: np.ndarray) -> np.ndarray:
+def pack_words(bits: np.ndarray) -> np.ndarray:
     """Pack rows of 0/1 into 64-bit words: (N, W) -> (N, ceil(W / 64)) uint64."""
     packed = np.packbits(bits.astype(np.uint8), axis=1)
     pad = (-packed.shape[1]) % 8
@@ -66,13 +66,13 @@ _BIT_DEST: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
 
 def _bit_destinations(m: int, k: int, l: int) -> tuple[np.ndarray, np.ndarray]:
     """(n_bits, m!) the word, and its value as that word, at which each bit of a flat state lands
-    under each permutation (memoised); the values are those :func:`_words` packs."""
+    under each permutation (memoised); the values are those :func:`pack_words` packs."""
     key = (m, k, l)
     if key not in _BIT_DEST:
         idx = _bit_index(m, k, l)                    # permuted position p takes source bit idx[s, p]
         n = idx.shape[1]
         dest = np.argsort(idx, axis=1)               # source bit j lands at dest[s, j]
-        unit = _words(np.eye(n, dtype=np.uint8))     # the packed pattern of a lone bit at each position
+        unit = pack_words(np.eye(n, dtype=np.uint8))     # the packed pattern of a lone bit at each position
         word = np.argmax(unit != 0, axis=1)
         value = unit[np.arange(n), word]
         _BIT_DEST[key] = (np.ascontiguousarray(word[dest].T), np.ascontiguousarray(value[dest].T))

@@ -11,7 +11,7 @@ import numpy as np
 from ..logic import Atom
 from ..world import Scene
 from .branch_and_bound import exact_state_distance
-from .encoding import Encoded, INF, _predicates_of, encode_state
+from .encoding import Encoded, INF, predicates_of, encode_state
 from .scenes import scene_distance
 
 
@@ -28,7 +28,7 @@ def state_distance(a: frozenset, objects_a: Sequence[str], b: frozenset, objects
     given). With actions, the primitive must match (else inf) and arguments map onto each other.
     Returns ``(distance, mapping)``, the mapping from ``objects_a`` onto ``objects_b``.
     """
-    preds = predicates or _predicates_of(a, b)
+    preds = predicates or predicates_of(a, b)
     size = max(len(objects_a), len(objects_b))
     labels = _labels(action_a, action_b)
     if labels is None:
@@ -97,7 +97,7 @@ def nearest(query: frozenset | Scene, objects: Sequence[str] | None,
                    for k, c in enumerate(candidates)]
         return _collect(results, tol)
     objects = tuple(objects or ())
-    preds = dict(predicates or _predicates_of(query, *(s for s, _ in candidates)))
+    preds = dict(predicates or predicates_of(query, *(s for s, _ in candidates)))
     size = max([len(objects), *(len(o) for _, o in candidates)])
     prims = sorted({a.predicate for a in ([action] if action else []) + list(candidate_actions or [])})
     labels = {p: k for k, p in enumerate(prims)}

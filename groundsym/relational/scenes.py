@@ -11,7 +11,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..logic import Atom
 from ..world import Scene
-from .encoding import INF, _lock_vector
+from .encoding import INF, lock_vector
 
 
 def _pins(objects_a: Sequence[str], action_a: Atom | None, objects_b: Sequence[str],
@@ -23,8 +23,8 @@ def _pins(objects_a: Sequence[str], action_a: Atom | None, objects_b: Sequence[s
         return []
     if action_a.predicate != action_b.predicate or action_a.arity != action_b.arity:
         return None
-    la = _lock_vector(objects_a, action_a, len(objects_a))
-    lb = _lock_vector(objects_b, action_b, len(objects_b))
+    la = lock_vector(objects_a, action_a, len(objects_a))
+    lb = lock_vector(objects_b, action_b, len(objects_b))
     pins = []
     for x, y in zip(action_a.args, action_b.args):
         i, j = list(objects_a).index(x), list(objects_b).index(y)

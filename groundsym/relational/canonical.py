@@ -19,26 +19,23 @@ it was computed in, nor of what was computed before. Everything here is built th
 
 Hash collisions could only merge colour classes; they never break exactness, because the search
 visits an isomorphism-invariant tree and every leaf is an actual encoding of the state.
+
+The hashing itself is :mod:`.hashing`. The numpy code here is the reference of the compiled
+kernels (:mod:`groundsym.compiled.canonical`); :func:`canonical_forms` takes its four steps with
+compiled twins as one :class:`CanonicalKernels` object, so this module never imports the
+kernels (they build on it).
 """
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
-__all__ = ["canonical_forms", "canonical_form", "refine", "twin_groups_of", "encode_rows"]
+from .hashing import HASH_PRIMES, mix
 
-_M1, _M2 = np.uint64(0xFF51AFD7ED558CCD), np.uint64(0xC4CEB9FE1A85EC53)
-_P = tuple(np.uint64(v) for v in (0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB,
-                                  0xD6E8FEB86659FD93, 0x2545F4914F6CDD1D, 0x7F4A7C159E3779B9))
-
-
-def _mix(x: np.ndarray) -> np.ndarray:
-    """A 64-bit finaliser: spreads bits so that sums of mixed values behave as multiset hashes."""
-    x = x ^ (x >> np.uint64(33))
-    x = x * _M1
-    x = x ^ (x >> np.uint64(33))
-    x = x * _M2
-    return x ^ (x >> np.uint64(33))
+__all__ = ["NUMPY_CANONICAL", "CanonicalKernels", "canonical_form", "canonical_forms", "encode_rows", "refine",
+           "search_leaves", "twin_groups_of"]
 
 
 def codes(bits: np.ndarray) -> np.ndarray:
@@ -63,7 +60,7 @@ def _n_classes(col: np.ndarray) -> np.ndarray:
 
 def initial_colours(ucode: np.ndarray) -> np.ndarray:
     """Colours before refinement: a hash of each object's own code."""
-    return _mix(ucode.astype(np.uint64) + _P[0])
+    return mix(ucode.astype(np.uint64) + HASH_PRIMES[0])
 
 
 def refine(col: np.ndarray, ecode: np.ndarray) -> np.ndarray:
@@ -81,11 +78,11 @@ def refine(col: np.ndarray, ecode: np.ndarray) -> np.ndarray:
     classes = _n_classes(col)
     for _ in range(m):
         c, e = col[active], ecode[active]
-        out_e = e.astype(np.uint64) * _P[1]
-        in_e = e.transpose(0, 2, 1).astype(np.uint64) * _P[2]
-        t = _mix(c[:, None, :] * _P[3] + out_e + _mix(in_e + c[:, None, :]))
+        out_e = e.astype(np.uint64) * HASH_PRIMES[1]
+        in_e = e.transpose(0, 2, 1).astype(np.uint64) * HASH_PRIMES[2]
+        t = mix(c[:, None, :] * HASH_PRIMES[3] + out_e + mix(in_e + c[:, None, :]))
         nb = np.where(off, t, np.uint64(0)).sum(2, dtype=np.uint64)
-        new = _mix(c * _P[4] + nb)
+        new = mix(c * HASH_PRIMES[4] + nb)
         now = _n_classes(new)
         split = now > classes[active]   # refinement only splits classes
         col[active[split]] = new[split]
@@ -131,14 +128,14 @@ def encode_rows(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> np.n
                            binary.reshape(n, -1).astype(np.uint8)], axis=1)
 
 
-def _colour_order(col: np.ndarray, lock: np.ndarray) -> np.ndarray:
+def colour_order(col: np.ndarray, lock: np.ndarray) -> np.ndarray:
     """Object order of a batch: action arguments first (by lock), then ascending colour, ties by
     index. Candidates with the same arguments then hold them at the same canonical positions,
     which the loss's enumeration kernel relies on."""
     return np.lexsort((col, -lock.astype(np.int64)), axis=-1)
 
 
-def _needing_search(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
+def needing_search(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
                     perms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows in which two objects of one colour are not interchangeable, with their twin groups.
 
@@ -157,9 +154,51 @@ def _needing_search(ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
     return cand[bad], groups[bad]
 
 
+class CanonicalKernels(Protocol):
+    """The four steps of :func:`canonical_forms` that have compiled twins, as one object: the
+    caller chooses the kernels once and passes them. :data:`NUMPY_CANONICAL` is the reference;
+    ``groundsym.compiled.COMPILED_CANONICAL`` computes the same integers (docs/symbols.md)."""
+
+    def colours(self, ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
+        """Stable refined colours (N, M) of a batch (:func:`colours`)."""
+
+    def colour_order(self, col: np.ndarray, lock: np.ndarray) -> np.ndarray:
+        """(N, M) objects ordered by lock, then colour, then index (:func:`colour_order`)."""
+
+    def needing_search(self, ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
+                       perms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows whose colour classes are not all twins, and their twin groups (:func:`needing_search`)."""
+
+    def individualise(self, unary: np.ndarray, binary: np.ndarray, lock: np.ndarray, ecode: np.ndarray,
+                      groups: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The canonical encoding and order of one such state, by individualisation-refinement."""
+
+
+class _NumpyCanonical:
+    """The reference steps: this module's numpy code."""
+
+    def colours(self, ucode: np.ndarray, ecode: np.ndarray) -> np.ndarray:
+        return colours(ucode, ecode)
+
+    def colour_order(self, col: np.ndarray, lock: np.ndarray) -> np.ndarray:
+        return colour_order(col, lock)
+
+    def needing_search(self, ucode: np.ndarray, ecode: np.ndarray, col: np.ndarray,
+                       perms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return needing_search(ucode, ecode, col, perms)
+
+    def individualise(self, unary: np.ndarray, binary: np.ndarray, lock: np.ndarray, ecode: np.ndarray,
+                      groups: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return _Search(unary, binary, lock, ecode, groups).run(col)
+
+
+#: The numpy reference of the :class:`CanonicalKernels`.
+NUMPY_CANONICAL: CanonicalKernels = _NumpyCanonical()
+
+
 def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
                     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None,
-                    kernels: str = "numpy") -> tuple[np.ndarray, np.ndarray]:
+                    kernels: CanonicalKernels = NUMPY_CANONICAL) -> tuple[np.ndarray, np.ndarray]:
     """Canonical encodings of a batch of states: equal rows if and only if the states are isomorphic.
 
     ``unary`` (N, M, K), ``binary`` (N, M, M, L) with zero diagonals, ``lock`` (N, M) small ints
@@ -167,39 +206,25 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
     (N, W) uint8 and ``perms`` (N, M): canonical position ``c`` of state ``n`` holds its object
     ``perms[n, c]``. Both are functions of each state alone (see the module docstring). States
     that need the individualisation search are memoised in ``cache`` when given, keyed by the
-    state's own encoding (sound, because the result depends on nothing else). ``kernels="numba"``
-    computes the colours, orders and twin tests with the compiled kernels of
-    :mod:`groundsym.compiled` (the same integers; this numpy code is their reference).
+    state's own encoding (sound, because the result depends on nothing else). ``kernels``
+    computes the colours, orders, twin tests and searches: this module's numpy code (the
+    reference) or the compiled kernels of :mod:`groundsym.compiled` (the same integers).
     """
     n, m = unary.shape[:2]
     ucode = object_codes(unary, lock)
     ecode = codes(binary)
-    if kernels == "numba":
-        from . import compiled
-        lock = lock.astype(np.int64, copy=False)
-        col = compiled.colours(ucode, ecode)
-        perms = compiled.colour_order(col, lock)
-    else:
-        col = colours(ucode, ecode)
-        perms = _colour_order(col, lock)
+    col = kernels.colours(ucode, ecode)
+    perms = kernels.colour_order(col, lock)
     idx = np.arange(n)[:, None]
     out = encode_rows(unary[idx, perms], binary[idx[:, :, None], perms[:, :, None], perms[:, None, :]],
                       lock[idx, perms])
     if m < 2:
         return out, perms
-    if kernels == "numba":
-        need, all_groups = compiled.needing_search(ucode, ecode, col, perms)
-        search = (np.flatnonzero(need), all_groups[need])
-    else:
-        search = _needing_search(ucode, ecode, col, perms)
-    for k, groups in zip(*search):
+    for k, groups in zip(*kernels.needing_search(ucode, ecode, col, perms)):
         raw = encode_rows(unary[k:k + 1], binary[k:k + 1], lock[k:k + 1]).tobytes() if cache is not None else b""
         hit = cache.get(raw) if cache is not None else None
         if hit is None:
-            if kernels == "numba":
-                hit = compiled.individualise(unary[k], binary[k], lock[k], ecode[k], groups, col[k])
-            else:
-                hit = _Search(unary[k], binary[k], lock[k], ecode[k], groups).run(col[k])
+            hit = kernels.individualise(unary[k], binary[k], lock[k], ecode[k], groups, col[k])
             if cache is not None:
                 if len(cache) > 100_000:
                     cache.clear()
@@ -209,7 +234,7 @@ def canonical_forms(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
 
 
 def canonical_form(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray,
-                   kernels: str = "numpy") -> tuple[np.ndarray, np.ndarray]:
+                   kernels: CanonicalKernels = NUMPY_CANONICAL) -> tuple[np.ndarray, np.ndarray]:
     """:func:`canonical_forms` of one state: ``unary`` (M, K), ``binary`` (M, M, L), ``lock`` (M,)."""
     codes_, perms = canonical_forms(unary[None], binary[None], lock[None], kernels=kernels)
     return codes_[0], perms[0]
@@ -289,7 +314,7 @@ class _Search:
         return np.array([root(x) for x in range(m)])
 
     def _visit(self, col: np.ndarray, prefix: list[int]) -> None:
-        perm = _colour_order(col[None], self.lock[None])[0]
+        perm = colour_order(col[None], self.lock[None])[0]
         cell = self._target(col, perm)
         if cell is None:
             self._leaf(perm)
@@ -312,10 +337,10 @@ class _Search:
 def _individual_colour(col: np.ndarray, old: np.uint64) -> np.uint64:
     """A colour for an object taken out of its class: a function of the class's colour only (so
     every choice of object gets the same one), moved on while it collides with a colour in use."""
-    new = _mix(np.array([old], dtype=np.uint64) ^ _P[5])     # arrays: uint64 scalars warn on overflow
+    new = mix(np.array([old], dtype=np.uint64) ^ HASH_PRIMES[5])     # arrays: uint64 scalars warn on overflow
     used = set(col.tolist())
     while int(new[0]) in used:
-        new = _mix(new + np.uint64(1))
+        new = mix(new + np.uint64(1))
     return new[0]
 
 
@@ -324,8 +349,8 @@ def search_leaves(unary: np.ndarray, binary: np.ndarray, lock: np.ndarray) -> in
     refinement alone orders it): the measure of its cost, for tests and benchmarks."""
     ucode, ecode = object_codes(unary[None], lock[None]), codes(binary[None])
     col = colours(ucode, ecode)
-    perms = _colour_order(col, lock[None])
-    rows, groups = _needing_search(ucode, ecode, col, perms)
+    perms = colour_order(col, lock[None])
+    rows, groups = needing_search(ucode, ecode, col, perms)
     if unary.shape[0] < 2 or not len(rows):
         return 0
     search = _Search(unary, binary, lock, ecode[0], groups[0])
