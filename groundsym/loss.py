@@ -16,7 +16,7 @@
   ``s_t``'s. Copying its whole successor (``predict="successor"``, the paper's words read
   literally) charges every literal in which the two states differ as a misprediction, so any
   symbol that splits the data (a static ``ball``) costs prediction accuracy even where it
-  predicts nothing wrong (docs/symbols.md has the figures). Literals are counted over all
+  predicts nothing wrong (docs/symbols-results.md has the figures). Literals are counted over all
   candidate symbols (``K M + L M (M-1)``), so a symbol pays for its mispredictions, not for
   existing. Ties at the minimal distance form an equal mixture. A transition with no comparable
   neighbour is predicted to change nothing.

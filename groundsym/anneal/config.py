@@ -35,7 +35,7 @@ class AnnealConfig:
     hop_after: float = 0.5       # share of a restart's budget after which re-seeds hop (with hop_steps > 0)
     ladder: float = 3.0          # candidate k runs at ladder**k x the temperature (replica exchange;
                                  # 1: one temperature): at 88e004a cubes and balls 2 -> 5 of 10, the tower
-                                 # 7 -> 8 (later runs: docs/symbols.md)
+                                 # 7 -> 8 (later runs: docs/symbols-results.md)
     p_exchange: float = 0.1      # with ladder > 1: per move, chance to offer neighbours' states a trade
 
     def __post_init__(self) -> None:

@@ -30,7 +30,7 @@ def proposal_points(data: LossData) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     all pairs (``on`` holds for 1-2% of the tower's pairs, for 60-74% of these). Drawn from all
     pairs, or from every pair with a moved object, 0.03% to 0.13% of the binary proposals matched
     ``on`` or ``above`` (F1 >= 0.8); from these, 0.6% to 1.8% (``examples/proposal_rates.py``,
-    docs/symbols.md).
+    docs/symbol-search.md).
     """
     hit = _PROPOSAL_POINTS.get(id(data))
     if hit is None or hit[0] is not data:

@@ -165,7 +165,7 @@ def settle(rng: np.random.Generator, loss: Loss, cand: Candidate, slot: int,
     Why: late in a restart the temperature is low and a raw re-seed, however good its basin, is
     almost always worse than the well-tuned symbol it replaces, so it is rejected. Narrow basins
     (``ball``: one dimension, a tight interval) lose to wide ones (``ontable``) that way, though
-    they go 2-30 nats deeper (docs/symbols.md, "Loss or search?").
+    they go 2-30 nats deeper (docs/symbols-results.md, "Loss or search?").
     """
     best, best_terms = cand, loss(cand)
     for _ in range(cfg.hop_steps):

@@ -57,7 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "bowling needs transition_weight=0.15, docs/bowling.md)")
     p.add_argument("--search", action="append", default=[], metavar="KEY=VALUE",
                    help="search setting, repeatable: " + ", ".join(SEARCH_KEYS) + " (ranges as LO,HI; "
-                        "defaults and what each does: docs/symbols.md)")
+                        "defaults and what each does: docs/symbol-search.md)")
     p.add_argument("--alpha", type=float, default=None, help="rule learning: complexity penalty (passed through)")
     p.add_argument("--p-min", type=float, default=None, help="rule learning: noise outcome floor (passed through)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
