@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
+from .identifiers import check_names
 from .logic import Atom, is_variable, parse_atom
 
 SCHEMA = "groundsym.reward/1"
@@ -311,6 +312,7 @@ def doc_to_reward(doc: Any, path: str | Path = "<reward>") -> RewardModel:
     if not isinstance(preds, dict) or any(isinstance(v, bool) or not isinstance(v, int) or v < 0
                                           for v in preds.values()):
         raise fail("predicates", "expected an object of name: arity")
+    check_names(preds, f"{path}: predicates")
     b = doc.get("intercept")
     if isinstance(b, bool) or not isinstance(b, (int, float)) or not np.isfinite(b):
         raise fail("intercept", f"expected a finite number, got {b!r}")
