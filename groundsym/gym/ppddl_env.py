@@ -49,7 +49,11 @@ class PPDDLGymEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
 
     def __init__(self, domain: str | Path, problem: str | Path | None = None, steps: int = DEFAULT_STEPS,
-                 render_mode: str | None = None, render_width: int = 640, render_height: int = 480):
+                 render_mode: str | None = None, render_width: int = 640, render_height: int = 480, **unknown: Any):
+        if unknown:                 # one line as the sims' unknown options get, not Python's bare TypeError
+            key = sorted(unknown)[0]
+            raise UserError(f"{key}={unknown[key]!r}: unknown keyword for a PPDDL environment (known: domain, "
+                            "problem, steps, render_mode, render_width, render_height)")
         self.render_mode, self.render_size = render_mode, frame_size(render_mode, render_width, render_height)
         path_argument(domain, "domain", "a PPDDL domain file")
         if problem is not None:
