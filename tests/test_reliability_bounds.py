@@ -29,7 +29,8 @@ def whole_number_options() -> list[tuple[str, str, object]]:
     for name, sub in commands.items():
         for action in sub._actions:
             kind = action.type
-            if kind in (int, positive_int, nonneg_int) or isinstance(kind, Count) or "int" in getattr(kind, "__name__", ""):
+            whole = kind in (int, positive_int, nonneg_int) or "int" in getattr(kind, "__name__", "")
+            if whole or isinstance(kind, Count):
                 out.append((name, action.option_strings[-1] if action.option_strings else action.dest, kind))
     return out
 

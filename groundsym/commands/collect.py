@@ -26,7 +26,8 @@ ORDER = 10
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_sim_args(p)
     p.add_argument("--traces", type=Count(1, MAX_TRACES, "traces"), default=10, help="number of traces N (default 10)")
-    p.add_argument("--length", type=Count(1, MAX_LENGTH, "primitives"), default=10, help="primitives per trace T (default 10)")
+    p.add_argument("--length", type=Count(1, MAX_LENGTH, "primitives"), default=10,
+                   help="primitives per trace T (default 10)")
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("-o", "--output", required=True, help="traces JSON to write (groundsym.traces/1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -19,7 +19,8 @@ from ..registry import get_sim_class, planner_names
 from ..fileio import read_json
 from ..options import parse_options, split_key_values
 from ..sim import warn_if_older_cell
-from ..limits import MAX_EVALS, MAX_RESTARTS, MAX_RUNS, MAX_STARTS, MAX_STEPS, MAX_SYMBOLS, MAX_TRANSITIONS, MAX_TRACES, MAX_WORKERS
+from ..limits import (MAX_EVALS, MAX_RESTARTS, MAX_RUNS, MAX_STARTS, MAX_STEPS, MAX_SYMBOLS, MAX_TRACES,
+                      MAX_TRANSITIONS, MAX_WORKERS)
 from ._common import SEED, Count, add_sim_args, sim_options
 
 NAME = "evaluate"
@@ -41,18 +42,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model-traces", default="9", help="traces of 10 primitives for model learning, "
                    "comma-separated counts (default 9; the paper: 3,9); the symbols of a run serve every count")
     p.add_argument("--runs", type=Count(1, MAX_RUNS, "runs"), default=30, help="independent runs (default 30)")
-    p.add_argument("--workers", type=Count(1, MAX_WORKERS, "worker processes"), default=None, help="worker processes (default 1; with "
+    p.add_argument("--workers", type=Count(1, MAX_WORKERS, "worker processes"), default=None,
+                   help="worker processes (default 1; with "
                    "--executor ray and no --ray-address: the CPUs of the local Ray, default all cores); the "
                    "results do not depend on it")
     add_executor_args(p, "With ray, each unit (one run at one symbol-data size) is a Ray task.")
     p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("--evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=100_000,
                    help="symbol-learning budget per run, loss evaluations over all restarts (default 1e5)")
-    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4, help="annealing restarts per run (default 4)")
-    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, help="unary symbols to learn (default 1)")
-    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, help="binary symbols to learn (default 1)")
-    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"), help="primitives per episode (default: the sim's episode length)")
-    p.add_argument("--starts", type=Count(1, MAX_STARTS, "start states"), default=3, help="start states per run (default 3)")
+    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4,
+                   help="annealing restarts per run (default 4)")
+    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1,
+                   help="unary symbols to learn (default 1)")
+    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1,
+                   help="binary symbols to learn (default 1)")
+    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"),
+                   help="primitives per episode (default: the sim's episode length)")
+    p.add_argument("--starts", type=Count(1, MAX_STARTS, "start states"), default=3,
+                   help="start states per run (default 3)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="METHOD:KEY=VALUE",
                    help="an option for one method, e.g. prada:samples=500 (repeatable)")
     p.add_argument("--truth-symbols", default="", metavar="PRED,PRED",
@@ -106,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         if m not in methods:
             raise UserError(f"--planner-opt {m}:...: {m} is not among --methods")
     truth = tuple(p for p in args.truth_symbols.split(",") if p.strip())
-    cfg = EvalConfig(sim=args.sim, methods=methods, symbol_data=parse_list(args.symbol_data, "--symbol-data", MAX_TRANSITIONS, "transitions"),
+    cfg = EvalConfig(sim=args.sim, methods=methods,
+                     symbol_data=parse_list(args.symbol_data, "--symbol-data", MAX_TRANSITIONS, "transitions"),
                      model_traces=parse_list(args.model_traces, "--model-traces", MAX_TRACES, "traces"), seed=args.seed,
                      evals=args.evals, steps=args.steps, starts=args.starts, unary=args.unary, binary=args.binary,
                      restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth)

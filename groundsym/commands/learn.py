@@ -39,11 +39,14 @@ DESCRIPTION = (HELP + ". On continuous traces (groundsym.traces/1) it learns --u
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("data", type=Path, help="training traces (continuous or symbolic JSON)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR", help="model directory to write")
-    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="K", help="unary symbols to learn (default 1)")
-    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="L", help="binary symbols to learn (default 1)")
+    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="K",
+                   help="unary symbols to learn (default 1)")
+    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="L",
+                   help="binary symbols to learn (default 1)")
     p.add_argument("--evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=100_000, metavar="E",
                    help="loss evaluations in total over all restarts (default 100000, the paper's budget)")
-    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4, metavar="R", help="independent restarts (default 4)")
+    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4, metavar="R",
+                   help="independent restarts (default 4)")
     p.add_argument("--workers", type=Count(1, MAX_WORKERS, "worker processes"), default=None, metavar="W",
                    help="worker processes (default: the number of cores); the result does not depend on it")
     add_executor_args(p, "With ray, each round's restarts are Ray tasks; without --ray-address, Ray "

@@ -38,7 +38,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "names the engine (default prada)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="KEY=VALUE",
                    help="planner option, repeatable, e.g. horizon=4 samples=500 variant=a-prada")
-    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"), help="primitives per episode (default: the sim's episode "
+    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"),
+                   help="primitives per episode (default: the sim's episode "
                    "length; on a PPDDL domain 5 per object, at least 50)")
     p.add_argument("--episodes", type=Count(1, MAX_EPISODES, "episodes"), default=1, help="episodes to run (default 1)")
     p.add_argument("--seed", type=SEED, default=0)

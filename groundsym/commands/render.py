@@ -25,7 +25,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--steps", type=Count(0, MAX_STEPS, "primitives"), default=0,
                    help=f"random primitives to run first (default 0, at most {MAX_STEPS})")
-    p.add_argument("--width", type=image_size, default=640, help=f"image width in pixels (default 640, at most {MAX_SIZE})")
+    p.add_argument("--width", type=image_size, default=640,
+                   help=f"image width in pixels (default 640, at most {MAX_SIZE})")
     p.add_argument("--height", type=image_size, default=480,
                    help=f"image height in pixels (default 480, at most {MAX_SIZE})")
     p.add_argument("-o", "--output", required=True, help="PNG file to write")

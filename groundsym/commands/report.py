@@ -34,7 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--against", type=Path, metavar="TRACES",
                    help="continuous traces with ground truth: each symbol's best match with precision/recall/F1")
     p.add_argument("--episode", type=Path, metavar="FILE", help="an episode file (groundsym plan -o) to show")
-    p.add_argument("--episode-index", type=Count(0, MAX_EPISODES - 1, "(plan writes at most %d episodes)" % MAX_EPISODES), default=0, metavar="K",
+    p.add_argument("--episode-index", type=Count(0, MAX_EPISODES - 1, f"(plan writes at most {MAX_EPISODES} episodes)"),
+                   default=0, metavar="K",
                    help="which episode of the file (default 0)")
     p.add_argument("--frames", type=Path, metavar="DIR", help="the episode's rendered frames (plan --render-dir)")
 

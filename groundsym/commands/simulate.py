@@ -43,7 +43,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain", required=True, help="PPDDL domain file (may also hold the problem)")
     p.add_argument("--problem", help="PPDDL problem file (default: the first problem in the domain file)")
     p.add_argument("--traces", type=Count(1, MAX_TRACES, "traces"), default=10, help="number of traces (default 10)")
-    p.add_argument("--length", type=Count(1, MAX_LENGTH, "steps"), default=20, help="steps per trace at most (default 20)")
+    p.add_argument("--length", type=Count(1, MAX_LENGTH, "steps"), default=20,
+                   help="steps per trace at most (default 20)")
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--inapplicable", type=share, default=0.0, metavar="SHARE",
                    help="share of steps that try an action whose precondition fails (default 0)")
