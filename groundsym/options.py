@@ -131,4 +131,5 @@ def positive(kind: Callable[[str], Any], most: float | None = None) -> Callable[
             raise ValueError(f"at most {most:g}")
         return v
     parse.__name__ = f"positive {kind.__name__}"
+    parse.most = most                      # type: ignore[attr-defined]  (tests walk the bounds)
     return parse

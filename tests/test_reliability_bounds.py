@@ -82,3 +82,38 @@ def test_evaluate_refuses_huge_sizes_before_writing_anything(tmp_path, capsys, f
     assert cli(["evaluate", "--sim", "tower", "-o", str(out), "--runs", "1", flag, value]) == 2
     one_line_error(capsys, f"{flag} {value}: {message}")
     assert not out.exists()
+
+
+def planner_and_sim_counts() -> list[tuple[str, str, str]]:
+    """(kind, owner, option) of every whole-number ``--planner-opt`` and ``--sim-opt`` option."""
+    from groundsym.registry import get_planner_class, get_sim_class, planner_names, sim_names
+    out = []
+    for owner in planner_names():
+        for opt in getattr(get_planner_class(owner), "OPTIONS", ()):
+            if opt.kind is int or getattr(opt.kind, "__name__", "") == "positive int":
+                out.append(("planner", owner, opt.name))
+    for owner in sim_names():
+        for opt in getattr(get_sim_class(owner), "OPTIONS", ()):
+            if opt.kind is int or getattr(opt.kind, "__name__", "") == "positive int":
+                out.append(("sim", owner, opt.name))
+    return out
+
+
+@pytest.mark.parametrize("kind, owner, key", planner_and_sim_counts())
+def test_every_planner_and_sim_count_has_an_upper_bound(kind, owner, key):
+    """A planner's own bound (``positive(int, most=...)``) or the sim's check of its options
+    (the tower: at most 10 objects) refuses a huge value in one line, before the physics starts."""
+    from groundsym.errors import UserError
+    from groundsym.options import parse_options
+    from groundsym.registry import get_planner_class, make_sim
+    with pytest.raises(UserError) as info:
+        if kind == "planner":
+            parse_options("--planner-opt", "planner", owner, get_planner_class(owner).OPTIONS, {key: HUGE})
+        else:
+            make_sim(owner, {key: HUGE})
+    assert str(info.value).startswith(f"--{kind}-opt {key}={HUGE}: ") and "\n" not in str(info.value), str(info.value)
+
+
+def test_the_planner_and_sim_counts_walked():
+    walked = {(o, k) for _, o, k in planner_and_sim_counts()}
+    assert {("prada", "samples"), ("prada", "horizon"), ("tower", "cubes"), ("bowling", "pins")} <= walked
