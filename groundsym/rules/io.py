@@ -73,6 +73,8 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     p_min_def = f.prob(f.get(doc, "p_min_default", "", (int, float)), "p_min_default")
     injective = f.get(doc, "injective", "", bool, True)
     derived = tuple(_derived(f, d, f"derived[{i}]", preds) for i, d in enumerate(f.get(doc, "derived", "", list, [])))
+    check_names([d.name for d in derived], f"{path}: derived")
+    _check_actions_are_no_predicates(f, prims, preds)
     if preds is not None:
         preds = {**preds, **{d.name: d.arity for d in derived}}
     defaults = []
@@ -85,6 +87,17 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     meta = {k: v for k, v in doc.items() if k not in ("schema", "rules", "defaults")}
     meta["covers"] = [rd.get("covers") for rd in doc["rules"]]
     return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective, derived), meta
+
+
+def _check_actions_are_no_predicates(f: DocReader, prims: Mapping[str, int] | None,
+                                     preds: Mapping[str, int] | None) -> None:
+    """An action named as a predicate, up to case, is refused as ``rename`` refuses it: an
+    exported domain would give one PDDL name two meanings."""
+    folded = {p.lower(): p for p in preds or ()}
+    for a in prims or ():
+        if a.lower() in folded:
+            raise f.fail("primitives", f"{a!r} is also the predicate {folded[a.lower()]!r}"
+                                       f"{'' if a == folded[a.lower()] else ' (one name in PDDL, which ignores case)'}")
 
 
 def _check_no_duplicates(f: DocReader, rules: tuple[Rule, ...]) -> None:
