@@ -15,6 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .errors import UserError
+from .identifiers import check_names
 from .logic import Atom, Literal, parse_atom, parse_literal
 
 MAX_MAGNITUDE = 1e12   # features and rewards beyond this overflow squares and sums in the loss
@@ -45,10 +46,13 @@ class DocReader:
         return val
 
     def arities(self, doc: Any, key: str, field: str = "", default: Any = ...) -> dict[str, int]:
-        """``doc[key]`` as a table of names to arities (non-negative integers)."""
+        """``doc[key]`` as a table of PDDL names (:func:`~groundsym.identifiers.check_names`: a
+        name that is no PDDL name would surface later as a syntax error in an exported domain) to
+        arities (non-negative integers)."""
         table = self.get(doc, key, field, dict, default)
         if table is default:
             return table
+        check_names(table, f"{self.path}: {field}.{key}" if field else f"{self.path}: {key}")
         for name, arity in table.items():
             if isinstance(arity, bool) or not isinstance(arity, int) or arity < 0:
                 raise self.fail(f"{field}.{key}.{name}" if field else f"{key}.{name}", "expected a non-negative arity")

@@ -27,7 +27,7 @@ def is_variable(term: str) -> bool:
 
 def is_name(text: str) -> bool:
     """True if ``text`` is a valid PDDL-style predicate, action or object name."""
-    return bool(_NAME_RE.match(text))
+    return bool(_NAME_RE.fullmatch(text))     # fullmatch: ``$`` lets a final newline by
 
 
 @dataclass(frozen=True, order=True)

@@ -76,6 +76,10 @@ class LossConfig:
             raise ValueError(f"noise must be in (0, 0.5), got {self.noise}")
         for f in fields(self):
             v = getattr(self, f.name)
+            if isinstance(v, (int, float)) and not math.isfinite(v):
+                raise ValueError(f"{f.name} must be a finite number, got {v}")
+            if f.name == "sigma_factor" and v <= 0:   # sigma 0: the reward term takes the log of 0
+                raise ValueError(f"sigma_factor must be positive, got {v}")
             if isinstance(v, (int, float)) and v < 0:
                 raise ValueError(f"{f.name} must be non-negative, got {v}")
 

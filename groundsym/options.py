@@ -11,6 +11,7 @@ parsers shared by several owners (:func:`parse_bool`, :func:`one_of`, :func:`pos
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
@@ -41,10 +42,11 @@ def parse_options(flag: str, owner_kind: str, owner_name: str, spec: tuple[Optio
         if key not in known:
             raise UserError(f"{flag} {key}: unknown option for {owner_kind} {owner_name!r} "
                             f"(known: {', '.join(sorted(known)) or 'none'})")
+        parse = whole_number if known[key].kind is int else known[key].kind
         try:
-            out[key] = known[key].kind(raw)
+            out[key] = parse(raw)
         except (TypeError, ValueError) as exc:
-            kind = getattr(known[key].kind, "__name__", "a value")
+            kind = getattr(parse, "__name__", "a value")
             raise UserError(f"{flag} {key}={raw}: expected {kind} ({exc})") from None
     return out
 
@@ -59,6 +61,21 @@ def split_key_values(items: list[str] | None, flag: str) -> dict[str, str]:
             k, v = part.split("=", 1)
             out[k.strip()] = v.strip()
     return out
+
+
+def whole_number(value: str | int) -> int:
+    """A whole number from text (``"4"``) or given as one (a Gymnasium keyword, ``cubes=4``); the
+    parser of every option declared ``int``. ``int()`` alone would make ``cubes=3.5`` three cubes
+    and ``cubes=True`` one, silently; a float (even ``3.0``) or a bool is refused instead."""
+    if isinstance(value, bool) or not isinstance(value, (str, numbers.Integral)):
+        raise ValueError(f"got {type(value).__name__} {value!r}")
+    try:
+        return int(value)
+    except ValueError:
+        raise ValueError(f"got {value!r}") from None
+
+
+whole_number.__name__ = "a whole number"
 
 
 def parse_bool(text: str | bool) -> bool:
@@ -107,11 +124,12 @@ def positive(kind: Callable[[str], Any], most: float | None = None) -> Callable[
     """Wrap ``int``/``float`` so values below 1 (ints) or at most 0 (floats) are refused, and,
     with ``most``, values above it (a size that would allocate terabytes is a typo, not a plan)."""
     def parse(text: str) -> Any:
-        v = kind(text)
+        v = (whole_number if kind is int else kind)(text)
         if (kind is int and v < 1) or (kind is not int and v <= 0):
             raise ValueError("must be positive")
         if most is not None and v > most:
             raise ValueError(f"at most {most:g}")
         return v
     parse.__name__ = f"positive {kind.__name__}"
+    parse.most = most                      # type: ignore[attr-defined]  (tests walk the bounds)
     return parse

@@ -24,6 +24,8 @@ import numpy as np
 
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
+from .docreader import DocReader
+from .identifiers import check_names
 from .logic import Atom, is_variable, parse_atom
 
 SCHEMA = "groundsym.reward/1"
@@ -311,17 +313,15 @@ def doc_to_reward(doc: Any, path: str | Path = "<reward>") -> RewardModel:
     if not isinstance(preds, dict) or any(isinstance(v, bool) or not isinstance(v, int) or v < 0
                                           for v in preds.values()):
         raise fail("predicates", "expected an object of name: arity")
-    b = doc.get("intercept")
-    if isinstance(b, bool) or not isinstance(b, (int, float)) or not np.isfinite(b):
-        raise fail("intercept", f"expected a finite number, got {b!r}")
+    check_names(preds, f"{path}: predicates")
+    r = DocReader(path)            # numbers at most MAX_MAGNITUDE, as in traces: 1e308 overflows the planners
+    b = r.number(doc.get("intercept"), "intercept")
     terms = doc.get("terms")
     if not isinstance(terms, list):
         raise fail("terms", "expected a list")
     feats, weights = [], []
     for i, t in enumerate(terms):
-        w = t.get("weight") if isinstance(t, dict) else None
-        if isinstance(w, bool) or not isinstance(w, (int, float)) or not np.isfinite(w):
-            raise fail(f"terms[{i}].weight", f"expected a finite number, got {w!r}")
+        w = r.number(t.get("weight") if isinstance(t, dict) else None, f"terms[{i}].weight")
         atoms_doc = t.get("atoms")
         if not isinstance(atoms_doc, list) or not atoms_doc:
             raise fail(f"terms[{i}].atoms", "expected a non-empty list of atoms")

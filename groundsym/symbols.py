@@ -24,7 +24,8 @@ import numpy as np
 
 from .errors import UserError
 from .fileio import atomic_write_json, read_json
-from .logic import Atom, is_name
+from .identifiers import check_names
+from .logic import Atom
 from .symbolic_traces import SymbolicDataset, SymbolicTrace
 from .docreader import DocReader
 from .traces import Dataset
@@ -261,13 +262,14 @@ def load_symbols(path: str | Path, feature_names: Sequence[str] | None = None) -
     pair_names = doc.get("pair_feature_names") or list(pair_feature_names(names))
     if not isinstance(pair_names, list) or not all(isinstance(n, str) for n in pair_names):
         raise r.fail("pair_feature_names", "expected a list of names")
-    symbols, seen = [], set()
+    symbols, seen = [], []
     for k, sdoc in enumerate(r.get(doc, "symbols", "", list)):
         f = f"symbols[{k}]"
         name = r.get(sdoc, "name", f, str)
-        if not is_name(name) or name in seen:
+        if name in seen:
             raise r.fail(f"{f}.name", f"expected a new predicate name, got {name!r}")
-        seen.add(name)
+        check_names([name], f"{path}: {f}.name", taken=seen)
+        seen.append(name)
         arity = r.get(sdoc, "arity", f, int)
         if arity not in (1, 2):
             raise r.fail(f"{f}.arity", f"expected 1 or 2, got {arity}")

@@ -88,7 +88,7 @@ def _choose(memory: Memory, hit: Any, observation: Observation, rng: np.random.G
 class _NNPlanner:
     OPTIONS = (Option("depth", positive(int, most=1000), DEPTH, "rewards summed into a state's value (paper: 4)"),
                Option("gamma", float, NN_GAMMA, "discount of those rewards (paper: 0.8)"),
-               Option("k", positive(int), 3, "closest training states that compete by value "
+               Option("k", positive(int, most=1_000_000), 3, "closest training states that compete by value "
                       "(ties with the k-th included)"))
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):

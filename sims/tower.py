@@ -89,8 +89,9 @@ def _check(opts: dict[str, Any]) -> None:
             raise bad(key, "must be at least 0")
     if opts["cubes"] + opts["balls"] + opts["cans"] < 1:
         raise bad("cubes", "the cell needs at least one object")
-    if opts["cubes"] + opts["balls"] + opts["cans"] > 10:
-        raise bad("cubes", "at most 10 objects (cubes + balls + cans) fit on the table with room for the hand")
+    if opts["cubes"] + opts["balls"] + opts["cans"] > 10:     # named: the largest count, the likely typo
+        raise bad(max(("cubes", "balls", "cans"), key=lambda k: opts[k]),
+                  "at most 10 objects (cubes + balls + cans) fit on the table with room for the hand")
     if opts["big"] > opts["cubes"]:
         raise bad("big", f"more big cubes than cubes ({opts['cubes']})")
     if not 0.0 <= opts["noise"] <= 0.05:

@@ -382,3 +382,85 @@ def test_cli_refuses_bad_files_in_one_line(seeds, tmp_path_factory, capsys):
 @pytest.mark.slow
 def test_cli_processes_refuse_bad_files_in_one_line(seeds, tmp_path_factory, capsys):
     _slow_cli(seeds, tmp_path_factory, capsys)
+
+
+# ----------------------------------------------------------------------------- Gymnasium
+# The constructors take keywords straight from ``gymnasium.make``: each either builds an environment
+# or raises UserError in one line naming the keyword (docs/gymnasium.md); ``step`` either steps or
+# raises ValueError (a bad action) or RuntimeError (before reset, after the end, after close), in
+# one line. Any other exception (a TypeError from deep inside, pybullet's errors) fails.
+GYM_ODD = st.one_of(st.sampled_from([None, True, False, 0, -1, 1, 2, 3, 4, 3.5, 3.0, -0.0, float("nan"), float("inf"),
+                                     1e308, 10 ** 23, "", "3", "3.5", "x", "rgb_array", "ansi", [], [3], {}, (1, 2),
+                                     b"3", np.int64(2), np.float64(2.0)]),
+                    st.integers(-5, 20), st.floats(-10, 10), st.text(max_size=5))
+GYM_KEYS = {"tower": ["cubes", "big", "balls", "cans", "noise", "small_size", "features", "steps", "model",
+                      "render_mode", "render_width", "render_height", "colour"],
+            "bowling": ["pins", "spots", "shuffle_ids", "noise", "speed", "timestep", "steps", "model",
+                        "render_mode", "render_width"],
+            "ppddl": ["domain", "problem", "steps", "render_mode", "render_width", "render_height", "colour"]}
+GYM_BASE = {"tower": {"cubes": 2}, "bowling": {"pins": 2},
+            "ppddl": {"domain": str(ROOT / "domains" / "reference" / "blocksworld" / "domain.ppddl"),
+                      "problem": str(ROOT / "domains" / "reference" / "blocksworld" / "p01.ppddl")}}
+GYM_OUTCOMES: dict[str, int] = {"built": 0, "refused": 0}
+
+
+def _one_line(exc: BaseException) -> None:
+    assert str(exc).strip() and "\n" not in str(exc).strip(), f"not one line: {type(exc).__name__}: {exc!r}"
+
+
+def _gym_case(kind: str, edits: dict[str, Any], actions: list[Any], seed: Any) -> None:
+    import gymnasium
+
+    from groundsym.gym import PPDDLGymEnv, SimGymEnv
+
+    kwargs = {**GYM_BASE[kind], **edits}
+    with time_bound(TIME_LIMIT):
+        try:
+            env = PPDDLGymEnv(**kwargs) if kind == "ppddl" else SimGymEnv(kind, **kwargs)
+        except UserError as exc:
+            _one_line(exc)
+            GYM_OUTCOMES["refused"] += 1
+            return
+        GYM_OUTCOMES["built"] += 1
+        try:
+            for action in actions:
+                try:
+                    env.step(action)
+                except (ValueError, RuntimeError) as exc:
+                    _one_line(exc)
+                    if "reset" in str(exc) or "ended" in str(exc):
+                        try:
+                            env.reset(seed=seed)
+                        except gymnasium.error.Error as bad_seed:      # Gymnasium's own check of the seed
+                            _one_line(bad_seed)
+                            env.reset(seed=0)
+        finally:
+            env.close()
+        with pytest.raises(RuntimeError, match="^the environment is closed$"):
+            env.step(0)
+
+
+def _gym_property(examples: int):
+    @settings(max_examples=examples, deadline=None, derandomize=True,
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+    @given(kind=st.sampled_from(sorted(GYM_KEYS)), data=st.data())
+    def run(kind: str, data) -> None:
+        edits = data.draw(st.dictionaries(st.sampled_from(GYM_KEYS[kind]), GYM_ODD, max_size=3))
+        actions = data.draw(st.lists(st.one_of(st.integers(-2, 12), GYM_ODD), max_size=4))
+        seed = data.draw(st.one_of(st.none(), st.integers(0, 2 ** 31), GYM_ODD))
+        _gym_case(kind, edits, actions, seed)
+    return run
+
+
+_fast_gym = _gym_property(FAST * 2)
+_slow_gym = _gym_property(SLOW // 2)
+
+
+def test_gym_constructors_and_step_work_or_refuse_in_one_line():
+    _fast_gym()
+    assert GYM_OUTCOMES["built"] and GYM_OUTCOMES["refused"], GYM_OUTCOMES
+
+
+@pytest.mark.slow
+def test_gym_constructors_and_step_many():
+    _slow_gym()

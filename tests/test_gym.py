@@ -289,3 +289,47 @@ def test_a_domain_exported_from_rules_is_played_through_its_primitives():
     objs = ("o1", "o2", "o3", "o4")
     assert env.unwrapped.action_atoms == tuple(A(p, o) for p in ("closeHandAround", "openHandOver") for o in objs)
     assert checked(env.unwrapped) == []
+
+
+# ----------------------------------------------------------------------------- arguments of the wrong type
+
+@pytest.mark.parametrize("value", [3.5, True, 3.0, "3.5", None, [3]])
+def test_a_whole_number_option_takes_no_float_or_bool(value):
+    """``Tower-v0(cubes=3.5)`` built 3 cubes and ``cubes=True`` one."""
+    with pytest.raises(UserError, match=r"^--sim-opt cubes=.*: expected a whole number") as info:
+        gymnasium.make("groundsym/Tower-v0", cubes=value)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: gymnasium.make("groundsym/Bowling-v0", pins=1, model=3),
+     "model=3: expected a model directory, a symbols.json file or a SymbolSet"),
+    (lambda: gymnasium.make("groundsym/PPDDL-v0", domain=None),
+     "domain=None: expected the path of a PPDDL domain file"),
+    (lambda: gymnasium.make("groundsym/PPDDL-v0", domain=str(BW / "domain.ppddl"), problem=7),
+     "problem=7: expected the path of a PPDDL problem file"),
+    (lambda: gymnasium.make("groundsym/Sim-v0", sim=3),
+     "sim=3: expected the name of a simulation"),
+    (lambda: gymnasium.make("groundsym/Bowling-v0", pins=1, steps=2.5),
+     "steps=2.5: expected a whole number"),
+])
+def test_arguments_of_the_wrong_type_are_one_line_naming_them(make, message):
+    """``model=3`` and ``PPDDL-v0(domain=None)`` raised a bare TypeError from deep inside."""
+    with pytest.raises(UserError) as info:
+        make()
+    assert message in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: gymnasium.make("groundsym/Bowling-v0", pins=1),
+    lambda: gymnasium.make("groundsym/PPDDL-v0", domain=str(BW / "domain.ppddl"), problem=str(BW / "p01.ppddl")),
+])
+def test_a_closed_environment_says_so(make):
+    """``step()`` after ``close()`` raised pybullet's ``Not connected to physics server``."""
+    env = make()
+    env.reset(seed=0)
+    env.close()
+    env.close()                              # closing twice is allowed, as Gymnasium asks
+    for call in (lambda: env.step(0), lambda: env.reset(seed=1)):
+        with pytest.raises(RuntimeError, match="^the environment is closed$"):
+            call()

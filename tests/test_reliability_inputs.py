@@ -97,6 +97,8 @@ def test_ppddl_nested_3000_deep_is_one_line_in_every_command(tmp_path, capsys, t
     (["--loss", "nosuch=1"], "--loss nosuch: unknown setting"),
     (["--model-data", "{missing}"], "no such file"),
     (["--checkpoint", "{dir}"], "is a directory"),
+    (["--loss", "sigma_factor=0"], "--loss: sigma_factor must be positive, got 0.0"),
+    (["--loss", "sigma_factor=-1"], "--loss: sigma_factor must be positive, got -1.0"),
 ])
 def test_learn_checks_every_option_before_any_work(tmp_path, capsys, args, message):
     args = [a.replace("{missing}", str(tmp_path / "nope.json")).replace("{dir}", str(tmp_path)) for a in args]
@@ -172,3 +174,35 @@ def test_a_tampered_model_is_refused_by_plan(tmp_path, capsys, tower_model):
     with pytest.raises(UserError, match="'renamed' \\(arity 1\\) is not a predicate of"):
         from groundsym.modeldir import load_model
         load_model(model)
+
+
+@pytest.mark.parametrize("field, value", [("intercept", 1e308), ("weight", -1e300)])
+def test_a_huge_reward_model_is_refused_where_it_is_read(tmp_path, capsys, tower_model, field, value):
+    """An intercept of 1e308 was exported as is, and ``plan`` ended in a traceback from PRADA
+    (``a cannot be empty unless no samples are taken``)."""
+    model = tmp_path / "M"
+    shutil.copytree(tower_model, model)
+    (model / "manifest.json").unlink()
+    doc = json.loads((model / "reward.json").read_text())
+    if field == "intercept":
+        doc["intercept"] = value
+    else:
+        doc["terms"][1]["weight"] = value
+    (model / "reward.json").write_text(json.dumps(doc))
+    where = "intercept" if field == "intercept" else "terms[1].weight"
+    message = f"{model / 'reward.json'}: {where}: {value:.3g} is beyond 1e+12 in magnitude"
+    assert cli(["export-domain", str(model), "-o", str(tmp_path / "out")]) == 2
+    one_line_error(capsys, message)
+    assert cli(["plan", "--sim", "tower", "--model", str(model), "--steps", "1"]) == 2
+    one_line_error(capsys, message)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("setting", [{"sigma_factor": 0.0}, {"sigma_factor": float("nan")},
+                                     {"effect_weight": float("inf")}, {"width_cap": float("nan")}])
+def test_loss_settings_that_end_in_a_math_error_are_refused(setting):
+    """``learn --loss sigma_factor=0`` ended in ``math domain error`` in the loss's reward term."""
+    from groundsym.loss import LossConfig
+    (key,) = setting
+    with pytest.raises(ValueError, match=f"^{key} must be "):
+        LossConfig(**setting)

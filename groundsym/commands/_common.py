@@ -9,7 +9,30 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import output_target
+from ..limits import MAX_SEED
 from ..options import split_key_values
+
+
+class Count:
+    """argparse ``type=`` for a count or size: a whole number from ``lo`` to ``hi`` (``unit`` names
+    what is counted in the refusal: ``argument --steps: at most 10000 primitives, got 10000000``).
+    Every count option has one, so an absurd value is one line, exit 2, before any work; the
+    bounds and why each is where it is: :mod:`groundsym.limits`, docs/reliability.md."""
+
+    def __init__(self, lo: int, hi: int, unit: str) -> None:
+        self.lo, self.hi, self.unit = lo, hi, unit
+
+    def __call__(self, text: str) -> int:
+        v = (positive_int if self.lo >= 1 else nonneg_int)(text)
+        if v > self.hi:
+            raise argparse.ArgumentTypeError(f"at most {self.hi}{' ' * bool(self.unit)}{self.unit}, got {v}")
+        return v
+
+    def __repr__(self) -> str:           # argparse names the type in some messages
+        return f"Count({self.lo}, {self.hi}, {self.unit!r})"
+
+
+SEED = Count(0, MAX_SEED, "")
 
 
 def positive_int(text: str) -> int:

@@ -13,7 +13,8 @@ from ..collect import collect_traces
 from ..provenance import provenance
 from ..registry import make_sim
 from ..traces import write_traces
-from ._common import add_sim_args, nonneg_int, positive_int, sim_options, writable_output
+from ..limits import MAX_LENGTH, MAX_TRACES
+from ._common import SEED, Count, add_sim_args, sim_options, writable_output
 
 NAME = "collect"
 HELP = "record traces of random primitives from a simulation"
@@ -24,9 +25,10 @@ ORDER = 10
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_sim_args(p)
-    p.add_argument("--traces", type=positive_int, default=10, help="number of traces N (default 10)")
-    p.add_argument("--length", type=positive_int, default=10, help="primitives per trace T (default 10)")
-    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument("--traces", type=Count(1, MAX_TRACES, "traces"), default=10, help="number of traces N (default 10)")
+    p.add_argument("--length", type=Count(1, MAX_LENGTH, "primitives"), default=10,
+                   help="primitives per trace T (default 10)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("-o", "--output", required=True, help="traces JSON to write (groundsym.traces/1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 

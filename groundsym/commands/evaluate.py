@@ -19,7 +19,9 @@ from ..registry import get_sim_class, planner_names
 from ..fileio import read_json
 from ..options import parse_options, split_key_values
 from ..sim import warn_if_older_cell
-from ._common import add_sim_args, nonneg_int, positive_int, sim_options
+from ..limits import (MAX_EVALS, MAX_RESTARTS, MAX_RUNS, MAX_STARTS, MAX_STEPS, MAX_SYMBOLS, MAX_TRACES,
+                      MAX_TRANSITIONS, MAX_WORKERS)
+from ._common import SEED, Count, add_sim_args, sim_options
 
 NAME = "evaluate"
 HELP = "compare planners under the paper's protocol (runs x start states), results as JSON, Markdown, PNG"
@@ -39,19 +41,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "sizes (default 80; the paper: 40,80,160)")
     p.add_argument("--model-traces", default="9", help="traces of 10 primitives for model learning, "
                    "comma-separated counts (default 9; the paper: 3,9); the symbols of a run serve every count")
-    p.add_argument("--runs", type=positive_int, default=30, help="independent runs (default 30)")
-    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default 1; with "
+    p.add_argument("--runs", type=Count(1, MAX_RUNS, "runs"), default=30, help="independent runs (default 30)")
+    p.add_argument("--workers", type=Count(1, MAX_WORKERS, "worker processes"), default=None,
+                   help="worker processes (default 1; with "
                    "--executor ray and no --ray-address: the CPUs of the local Ray, default all cores); the "
                    "results do not depend on it")
     add_executor_args(p, "With ray, each unit (one run at one symbol-data size) is a Ray task.")
-    p.add_argument("--seed", type=nonneg_int, default=0)
-    p.add_argument("--evals", type=positive_int, default=100_000,
+    p.add_argument("--seed", type=SEED, default=0)
+    p.add_argument("--evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=100_000,
                    help="symbol-learning budget per run, loss evaluations over all restarts (default 1e5)")
-    p.add_argument("--restarts", type=positive_int, default=4, help="annealing restarts per run (default 4)")
-    p.add_argument("--unary", type=nonneg_int, default=1, help="unary symbols to learn (default 1)")
-    p.add_argument("--binary", type=nonneg_int, default=1, help="binary symbols to learn (default 1)")
-    p.add_argument("--steps", type=positive_int, help="primitives per episode (default: the sim's episode length)")
-    p.add_argument("--starts", type=positive_int, default=3, help="start states per run (default 3)")
+    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4,
+                   help="annealing restarts per run (default 4)")
+    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1,
+                   help="unary symbols to learn (default 1)")
+    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1,
+                   help="binary symbols to learn (default 1)")
+    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"),
+                   help="primitives per episode (default: the sim's episode length)")
+    p.add_argument("--starts", type=Count(1, MAX_STARTS, "start states"), default=3,
+                   help="start states per run (default 3)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="METHOD:KEY=VALUE",
                    help="an option for one method, e.g. prada:samples=500 (repeatable)")
     p.add_argument("--truth-symbols", default="", metavar="PRED,PRED",
@@ -61,14 +69,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def parse_list(text: str, flag: str) -> tuple[int, ...]:
-    """``--symbol-data 40,80,160``: positive whole numbers separated by commas."""
+def parse_list(text: str, flag: str, most: int | None = None, unit: str = "") -> tuple[int, ...]:
+    """``--symbol-data 40,80,160``: positive whole numbers separated by commas, each at most ``most``."""
     try:
         vals = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
         raise UserError(f"{flag} {text}: expected whole numbers separated by commas") from None
     if not vals or any(v < 1 for v in vals):
         raise UserError(f"{flag} {text}: expected positive whole numbers")
+    if most is not None and max(vals) > most:
+        raise UserError(f"{flag} {text}: at most {most} {unit}, got {max(vals)}")
     return vals
 
 
@@ -103,8 +113,9 @@ def run(args: argparse.Namespace) -> int:
         if m not in methods:
             raise UserError(f"--planner-opt {m}:...: {m} is not among --methods")
     truth = tuple(p for p in args.truth_symbols.split(",") if p.strip())
-    cfg = EvalConfig(sim=args.sim, methods=methods, symbol_data=parse_list(args.symbol_data, "--symbol-data"),
-                     model_traces=parse_list(args.model_traces, "--model-traces"), seed=args.seed,
+    cfg = EvalConfig(sim=args.sim, methods=methods,
+                     symbol_data=parse_list(args.symbol_data, "--symbol-data", MAX_TRANSITIONS, "transitions"),
+                     model_traces=parse_list(args.model_traces, "--model-traces", MAX_TRACES, "traces"), seed=args.seed,
                      evals=args.evals, steps=args.steps, starts=args.starts, unary=args.unary, binary=args.binary,
                      restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth)
     optimum = optimum_of(args.sim, given)

@@ -24,7 +24,8 @@ from ..symbolic_traces import SCHEMA as SYMBOLIC_SCHEMA, read_symbolic_traces
 from ..symbols import SymbolSet, dataset_arrays, dataset_pair_names, save_symbols, share_true
 from ..traces import SCHEMA as TRACES_SCHEMA, Dataset, file_schema, read_traces
 from ..workers import default_workers
-from ._common import nonneg_int, positive_int
+from ..limits import MAX_EVALS, MAX_HOP_STEPS, MAX_POPULATION, MAX_RESTARTS, MAX_SYMBOLS, MAX_WORKERS
+from ._common import SEED, Count
 
 NAME = "learn"
 HELP = "learn symbols (from continuous traces), NID rules and a reward model into a model directory"
@@ -38,16 +39,19 @@ DESCRIPTION = (HELP + ". On continuous traces (groundsym.traces/1) it learns --u
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("data", type=Path, help="training traces (continuous or symbolic JSON)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR", help="model directory to write")
-    p.add_argument("--unary", type=nonneg_int, default=1, metavar="K", help="unary symbols to learn (default 1)")
-    p.add_argument("--binary", type=nonneg_int, default=1, metavar="L", help="binary symbols to learn (default 1)")
-    p.add_argument("--evals", type=positive_int, default=100_000, metavar="E",
+    p.add_argument("--unary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="K",
+                   help="unary symbols to learn (default 1)")
+    p.add_argument("--binary", type=Count(0, MAX_SYMBOLS, "symbols"), default=1, metavar="L",
+                   help="binary symbols to learn (default 1)")
+    p.add_argument("--evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=100_000, metavar="E",
                    help="loss evaluations in total over all restarts (default 100000, the paper's budget)")
-    p.add_argument("--restarts", type=positive_int, default=4, metavar="R", help="independent restarts (default 4)")
-    p.add_argument("--workers", type=positive_int, default=None, metavar="W",
+    p.add_argument("--restarts", type=Count(1, MAX_RESTARTS, "restarts"), default=4, metavar="R",
+                   help="independent restarts (default 4)")
+    p.add_argument("--workers", type=Count(1, MAX_WORKERS, "worker processes"), default=None, metavar="W",
                    help="worker processes (default: the number of cores); the result does not depend on it")
     add_executor_args(p, "With ray, each round's restarts are Ray tasks; without --ray-address, Ray "
                       "starts on this machine with --workers CPUs.")
-    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
                    help="save the search state here after every round; an existing file is resumed")
     p.add_argument("--model-data", type=Path, default=None, metavar="FILE",
@@ -92,6 +96,9 @@ def loss_config(items: list[str]) -> LossConfig:
 
 # the search's settings other than those with their own flags (--unary, --binary, --evals, --restarts)
 SEARCH_KEYS = tuple(f.name for f in fields(AnnealConfig) if f.name not in ("n_unary", "n_binary", "evals", "restarts"))
+# the upper bound of each whole-number search setting (groundsym.limits; a test walks them all)
+SEARCH_MAX = {"population": (MAX_POPULATION, "candidates"), "chunk": (MAX_EVALS, "evaluations"),
+              "hop_steps": (MAX_HOP_STEPS, "steps")}
 
 
 def anneal_config(args: argparse.Namespace) -> AnnealConfig:
@@ -107,6 +114,9 @@ def anneal_config(args: argparse.Namespace) -> AnnealConfig:
                 values[key] = text
             elif types[key] == "int":
                 values[key] = int(text)
+                hi, unit = SEARCH_MAX[key]
+                if values[key] > hi:
+                    raise UserError(f"--search {key}={text}: at most {hi} {unit}")
             elif types[key].startswith("tuple"):
                 lo, hi = (float(x) for x in text.split(","))
                 values[key] = (lo, hi)
@@ -121,9 +131,6 @@ def anneal_config(args: argparse.Namespace) -> AnnealConfig:
                             **values)
     except ValueError as exc:
         raise UserError(f"--search: {exc}") from None
-
-
-MAX_SYMBOLS = 64   # per arity: far beyond the paper's 1-3, small enough that memory is never the limit
 
 
 def check_options(args: argparse.Namespace) -> str:
@@ -142,9 +149,6 @@ def check_options(args: argparse.Namespace) -> str:
     check_executor_options(args.executor, args.ray_address)
     if args.unary + args.binary == 0:
         raise UserError("--unary and --binary: need at least one symbol to learn")
-    for flag, k in (("--unary", args.unary), ("--binary", args.binary)):
-        if k > MAX_SYMBOLS:
-            raise UserError(f"{flag}: at most {MAX_SYMBOLS} symbols, got {k}")
     if args.evals < args.restarts:
         raise UserError(f"--evals: {args.evals} is less than one evaluation per restart ({args.restarts})")
     loss_config(args.loss)

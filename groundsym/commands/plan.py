@@ -17,7 +17,8 @@ from ..planner import PlanningModel, make_planner
 from ..provenance import provenance
 from ..registry import BUILTIN_PLANNERS, get_planner_class, get_sim_class, make_sim
 from ..sim import feature_names_for, warn_if_older_cell
-from ._common import add_sim_args, nonneg_int, output_path, positive_int, sim_options
+from ..limits import MAX_EPISODES, MAX_STEPS
+from ._common import SEED, Count, add_sim_args, output_path, sim_options
 
 NAME = "plan"
 HELP = "run a planner step by step in a simulation (--sim) or on a PPDDL domain (--domain)"
@@ -37,10 +38,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "names the engine (default prada)")
     p.add_argument("--planner-opt", action="append", default=[], metavar="KEY=VALUE",
                    help="planner option, repeatable, e.g. horizon=4 samples=500 variant=a-prada")
-    p.add_argument("--steps", type=positive_int, help="primitives per episode (default: the sim's episode "
+    p.add_argument("--steps", type=Count(1, MAX_STEPS, "primitives"),
+                   help="primitives per episode (default: the sim's episode "
                    "length; on a PPDDL domain 5 per object, at least 50)")
-    p.add_argument("--episodes", type=positive_int, default=1, help="episodes to run (default 1)")
-    p.add_argument("--seed", type=nonneg_int, default=0)
+    p.add_argument("--episodes", type=Count(1, MAX_EPISODES, "episodes"), default=1, help="episodes to run (default 1)")
+    p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("-o", "--output", type=output_path, help="write the episode(s) as JSON")
     p.add_argument("--render-dir", help="write a PNG per step (simulation only)")
     p.add_argument("--quiet", action="store_true", help="print only the summary")

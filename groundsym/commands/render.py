@@ -7,7 +7,8 @@ import argparse
 from ..collect import collect_trace, trace_seeds
 from ..errors import UserError
 from ..registry import make_sim
-from ._common import add_sim_args, nonneg_int, positive_int, sim_options
+from ..limits import MAX_PIXELS, MAX_STEPS
+from ._common import SEED, Count, add_sim_args, sim_options
 from ._common import writable_output
 
 NAME = "render"
@@ -15,25 +16,20 @@ HELP = "draw a simulation's scene as a PNG"
 DESCRIPTION = (HELP + ". It shows the start state of the first trace that `groundsym collect` records with the "
                "same --seed and options, or with --steps K the scene after its first K random primitives.")
 ORDER = 11
-MAX_SIZE = 4096
+MAX_SIZE = MAX_PIXELS
+image_size = Count(1, MAX_PIXELS, "pixels")   # a side: the software renderer's time and memory grow with the area
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_sim_args(p)
-    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
-    p.add_argument("--steps", type=nonneg_int, default=0, help="random primitives to run first (default 0)")
-    p.add_argument("--width", type=image_size, default=640, help=f"image width in pixels (default 640, at most {MAX_SIZE})")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
+    p.add_argument("--steps", type=Count(0, MAX_STEPS, "primitives"), default=0,
+                   help=f"random primitives to run first (default 0, at most {MAX_STEPS})")
+    p.add_argument("--width", type=image_size, default=640,
+                   help=f"image width in pixels (default 640, at most {MAX_SIZE})")
     p.add_argument("--height", type=image_size, default=480,
                    help=f"image height in pixels (default 480, at most {MAX_SIZE})")
     p.add_argument("-o", "--output", required=True, help="PNG file to write")
-
-
-def image_size(text: str) -> int:
-    """A side in pixels, 1 to MAX_SIZE: the software renderer's time and memory grow with the area."""
-    v = positive_int(text)
-    if v > MAX_SIZE:
-        raise argparse.ArgumentTypeError(f"at most {MAX_SIZE} pixels, got {v}")
-    return v
 
 
 def run(args: argparse.Namespace) -> int:

@@ -16,7 +16,8 @@ from ..report.page import page
 from ..report.sections import (against_name, domain_section, grounding_section, model_name, overview,
                                reward_section, rules_section, symbol_data, symbols_section)
 from ..traces import read_traces
-from ._common import nonneg_int, output_path, writable_output
+from ..limits import MAX_EPISODES
+from ._common import Count, output_path, writable_output
 
 NAME = "report"
 HELP = "write a learned model as one self-contained HTML page (symbols, F1, rules, reward, domain, episode)"
@@ -33,7 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--against", type=Path, metavar="TRACES",
                    help="continuous traces with ground truth: each symbol's best match with precision/recall/F1")
     p.add_argument("--episode", type=Path, metavar="FILE", help="an episode file (groundsym plan -o) to show")
-    p.add_argument("--episode-index", type=nonneg_int, default=0, metavar="K",
+    p.add_argument("--episode-index", type=Count(0, MAX_EPISODES - 1, f"(plan writes at most {MAX_EPISODES} episodes)"),
+                   default=0, metavar="K",
                    help="which episode of the file (default 0)")
     p.add_argument("--frames", type=Path, metavar="DIR", help="the episode's rendered frames (plan --render-dir)")
 

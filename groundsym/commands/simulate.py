@@ -17,7 +17,8 @@ from ..ppddl.simulate import Task, simulate_traces
 from ..progress import Progress
 from ..provenance import provenance
 from ..symbolic_traces import write_symbolic_traces
-from ._common import nonneg_int, output_path, positive_int, writable_output
+from ..limits import MAX_LENGTH, MAX_TRACES
+from ._common import SEED, Count, output_path, writable_output
 
 NAME = "simulate"
 HELP = "sample random symbolic traces from a PPDDL domain and problem"
@@ -41,9 +42,10 @@ def share(text: str) -> float:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain", required=True, help="PPDDL domain file (may also hold the problem)")
     p.add_argument("--problem", help="PPDDL problem file (default: the first problem in the domain file)")
-    p.add_argument("--traces", type=positive_int, default=10, help="number of traces (default 10)")
-    p.add_argument("--length", type=positive_int, default=20, help="steps per trace at most (default 20)")
-    p.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument("--traces", type=Count(1, MAX_TRACES, "traces"), default=10, help="number of traces (default 10)")
+    p.add_argument("--length", type=Count(1, MAX_LENGTH, "steps"), default=20,
+                   help="steps per trace at most (default 20)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--inapplicable", type=share, default=0.0, metavar="SHARE",
                    help="share of steps that try an action whose precondition fails (default 0)")
     p.add_argument("-o", "--output", type=output_path, required=True, help="symbolic traces JSON to write")

@@ -10,6 +10,7 @@ observation wrapper that gives a wrapped simulation environment's agent those ve
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -32,6 +33,8 @@ def load_symbol_set(model: str | Path | SymbolSet, feature_names: Sequence[str])
     if isinstance(model, SymbolSet):
         model.check_features(feature_names, "model")
         return model
+    if not isinstance(model, (str, os.PathLike)):     # a number reached Path() as a bare TypeError
+        raise UserError(f"model={model!r}: expected a model directory, a symbols.json file or a SymbolSet")
     path = Path(model)
     if path.is_dir():
         path = path / SYMBOLS

@@ -8,6 +8,7 @@ their simulator takes in the same way.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import gymnasium
@@ -18,8 +19,28 @@ from ..errors import UserError
 SEED_RANGE = 2 ** 31     # seeds drawn for resets without one
 
 
+CLOSED = "the environment is closed"
+
+
+def check_open(closed: bool) -> None:
+    """After ``close()`` the simulator is gone: say so, instead of pybullet's ``Not connected to
+    physics server`` from deep inside a step."""
+    if closed:
+        raise RuntimeError(CLOSED)
+
+
+def path_argument(value: Any, key: str, what: str) -> Any:
+    """``value`` if it is a path (text or ``os.PathLike``), else one line naming the keyword; a
+    ``None`` or a number used to end in a TypeError from deep inside the file reader."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise UserError(f"{key}={value!r}: expected the path of {what}")
+    return value
+
+
 def positive_steps(steps: Any, where: str) -> int:
     """The ``steps=`` option as a positive whole number (one clear line otherwise)."""
+    if isinstance(steps, bool):                  # True == 1 to int(); no step count
+        raise UserError(f"{where}: steps={steps!r}: expected a whole number of at least 1")
     try:
         value = int(steps)
     except (TypeError, ValueError):

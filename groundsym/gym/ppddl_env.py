@@ -33,7 +33,7 @@ from ..ppddl.parser import load
 from ..ppddl.simulate import Task
 from .atoms import AtomIndex, typed_atoms
 from .render import text_frame
-from .options import episode_seed, frame_size, positive_steps
+from .options import check_open, episode_seed, frame_size, path_argument, positive_steps
 
 DEFAULT_STEPS = 30
 
@@ -49,8 +49,15 @@ class PPDDLGymEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
 
     def __init__(self, domain: str | Path, problem: str | Path | None = None, steps: int = DEFAULT_STEPS,
-                 render_mode: str | None = None, render_width: int = 640, render_height: int = 480):
+                 render_mode: str | None = None, render_width: int = 640, render_height: int = 480, **unknown: Any):
+        if unknown:                 # one line as the sims' unknown options get, not Python's bare TypeError
+            key = sorted(unknown)[0]
+            raise UserError(f"{key}={unknown[key]!r}: unknown keyword for a PPDDL environment (known: domain, "
+                            "problem, steps, render_mode, render_width, render_height)")
         self.render_mode, self.render_size = render_mode, frame_size(render_mode, render_width, render_height)
+        path_argument(domain, "domain", "a PPDDL domain file")
+        if problem is not None:
+            path_argument(problem, "problem", "a PPDDL problem file")
         where = str(problem or domain)
         dom, prob = load(domain, problem)
         self.world, self.task = ppddl_world(dom, prob, where)
@@ -65,6 +72,7 @@ class PPDDLGymEnv(gymnasium.Env):
         self._t: int | None = None
         self._applicable: tuple[frozenset, frozenset] | None = None
         self._last = ""
+        self._closed = False
 
     @property
     def atoms(self) -> tuple:
@@ -76,12 +84,14 @@ class PPDDLGymEnv(gymnasium.Env):
     # ------------------------------------------------------------------ the Gymnasium API
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+        check_open(self._closed)
         super().reset(seed=seed)
         self.world.reset(episode_seed(self, seed), self.steps)
         self._t, self._last = 0, ""
         return self.index.vector(self.world.state), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
+        check_open(self._closed)
         if self._t is None:
             raise RuntimeError("call reset() before step()")
         if self._t >= self.steps or self._ended():
@@ -103,6 +113,11 @@ class PPDDLGymEnv(gymnasium.Env):
         status = "goal reached" if self.world.done() else f"step {self._t or 0} of {self.steps}"
         after = f", after {self._last}" if self._last else ""
         return text_frame(f"{self.name}: {status}{after}", format_state(self.world.state), *self.render_size)
+
+    def close(self) -> None:
+        """Nothing to release (the simulator is pure Python), but a closed environment says so
+        when it is used again, as the simulation environments do."""
+        self._closed = True
 
     # ------------------------------------------------------------------ helpers
 

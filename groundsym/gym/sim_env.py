@@ -33,7 +33,7 @@ from ..registry import make_sim, sim_names
 from ..symbols import SymbolSet
 from ..world import Scene
 from .abstract import ATOMS_KEY, SymbolObservation
-from .options import episode_seed, frame_size, positive_steps
+from .options import check_open, episode_seed, frame_size, positive_steps
 from .render import sim_frame
 
 class SimGymEnv(gymnasium.Env):
@@ -46,6 +46,8 @@ class SimGymEnv(gymnasium.Env):
                  **options: Any):
         if sim is None:
             raise UserError(f"sim=: name a simulation ({', '.join(sim_names())})")
+        if not isinstance(sim, str):
+            raise UserError(f"sim={sim!r}: expected the name of a simulation ({', '.join(sim_names())})")
         self.render_mode, self.render_size = render_mode, frame_size(render_mode, render_width, render_height)
         self.sim_name = sim
         self.sim = make_sim(sim, options)
@@ -75,6 +77,7 @@ class SimGymEnv(gymnasium.Env):
     # ------------------------------------------------------------------ the Gymnasium API
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+        check_open(self._closed)
         super().reset(seed=seed)
         scene = self.sim.reset(episode_seed(self, seed))
         if tuple(scene.objects) != self.objects:
@@ -84,6 +87,7 @@ class SimGymEnv(gymnasium.Env):
         return self._observation(scene), self._info(scene)
 
     def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
+        check_open(self._closed)
         if self._scene is None:
             raise RuntimeError("call reset() before step()")
         if self._t >= self.steps:
@@ -100,6 +104,7 @@ class SimGymEnv(gymnasium.Env):
         if self.render_mode != "rgb_array":
             gymnasium.logger.warn("render() without render_mode='rgb_array' draws nothing")
             return None
+        check_open(self._closed)
         return sim_frame(self.sim, *self.render_size)
 
     def close(self) -> None:

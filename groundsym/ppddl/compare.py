@@ -24,6 +24,19 @@ def context_key(rule: Rule) -> tuple:
     return rule.action.predicate, len(rule.action.args), best
 
 
+def same_rule_key(rule: Rule) -> tuple:
+    """The rule's primitive, context and outcomes up to the names of its variables: two rules of a
+    rule set with one key cover the same states, so neither covers any (Pasula et al. 2007: a
+    state-action pair covered by two rules falls to the default rule)."""
+    ren = {v: f"?a{i}" for i, v in enumerate(rule.action.args)}
+    best = None
+    for perm in permutations(range(len(rule.deictic))):
+        ren.update({y: f"?d{perm[j]}" for j, y in enumerate(rule.deictic)})
+        key = (tuple(sorted(str(l.substitute(ren)) for l in rule.context)),
+               tuple(sorted(tuple(sorted(str(c.substitute(ren)) for c in o.changes)) for o in rule.outcomes)))
+        best = key if best is None or key < best else best
+    return rule.action.predicate, len(rule.action.args), best
+
 
 def rules_equal(a: Rule, b: Rule, tol: float = 1e-9) -> bool:
     """Same action, context, outcomes and probabilities; noise equal within ``tol`` (a PPDDL file

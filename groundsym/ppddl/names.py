@@ -16,30 +16,9 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ..errors import UserError
+from ..identifiers import RESERVED, check_identifier  # noqa: F401 (their home before groundsym.identifiers)
 from ..fileio import atomic_write_json, atomic_write_text, read_json
 from ..rules.model import Derived
-
-_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
-# words that PDDL or PPDDL give a meaning, and names the exporter uses itself
-RESERVED = frozenset({
-    "and", "or", "not", "imply", "exists", "forall", "when", "either", "probabilistic", "increase",
-    "decrease", "reward", "total-cost", "define", "domain", "problem", "object", "noise-happened",
-})
-
-
-def check_identifier(name: str, what: str) -> str:
-    """``name`` if it is a PDDL identifier (a letter, then letters, digits, ``-`` or ``_``) and
-    not a PDDL keyword; else a :class:`UserError` that says why, naming ``what``."""
-    if not isinstance(name, str) or not name:
-        raise UserError(f"{what}: the name is empty")
-    if not _IDENTIFIER.match(name):
-        bad = next((c for c in name if not (c.isascii() and (c.isalnum() or c in "_-"))), None)
-        why = (f"it contains {bad!r}" if bad is not None else f"it starts with {name[0]!r}")
-        raise UserError(f"{what}: {name!r} is not a PDDL name ({why}; use a letter, then letters, "
-                        "digits, '-' or '_')")
-    if name.lower() in RESERVED:
-        raise UserError(f"{what}: {name!r} is a PDDL keyword; choose another name")
-    return name
 
 
 def parse_renames(items: Sequence[str], what: str = "rename") -> dict[str, str]:
@@ -60,24 +39,35 @@ def parse_renames(items: Sequence[str], what: str = "rename") -> dict[str, str]:
 
 def check_renames(mapping: Mapping[str, str], predicates: Mapping[str, int], primitives: Sequence[str],
                   where: str, what: str = "rename") -> None:
-    """Every old name is a predicate of the model; no new name collides with a predicate that
-    stays, another new name, a primitive (action) name or the name a derived predicate takes after
-    the renaming (``on=stacked`` makes ``no-on-1`` ``no-stacked-1``; :func:`with_derived_names`)."""
+    """Every old name is a predicate of the model; no new name is, to PDDL (which ignores case:
+    :mod:`groundsym.identifiers`), a predicate that stays, another new name, a primitive (action)
+    name or the name a derived predicate takes after the renaming (``on=stacked`` makes
+    ``no-on-1`` ``no-stacked-1``; :func:`with_derived_names`)."""
     for old in mapping:
         if old not in predicates:
             raise UserError(f"{what}: {where} has no predicate {old!r} (predicates: {', '.join(sorted(predicates))})")
-    after = [mapping.get(p, p) for p in predicates]
-    clash = sorted({n for n in after if after.count(n) > 1})
-    if clash:
-        raise UserError(f"{what}: two predicates would be called {clash[0]!r}")
-    prim = sorted(set(after) & set(primitives))
-    if prim:
-        raise UserError(f"{what}: {prim[0]!r} is an action name of {where}; choose another name")
-    derived = {d.name: d.base for p, n in predicates.items() for d in Derived.for_predicates({mapping.get(p, p): n})}
-    taken = sorted(set(mapping.values()) & set(derived))
-    if taken:
-        raise UserError(f"{what}: {taken[0]!r} is the name of a predicate derived from {derived[taken[0]]!r}; "
-                        "choose another name")
+    after: dict[str, str] = {}                                       # lower-case name -> its predicate
+    for p in sorted(predicates, key=lambda p: p in mapping):          # the new names last: they are named first
+        name = mapping.get(p, p)
+        first = after.setdefault(name.lower(), p)
+        if first != p:
+            other = mapping.get(first, first)
+            pair = f"{name!r}" if other == name else f"{name!r} and {other!r}"
+            raise UserError(f"{what}: two predicates would be called {pair}{_case_note(name, other)}")
+    actions = {a.lower(): a for a in primitives}
+    derived = {d.name.lower(): d for p, n in predicates.items() for d in Derived.for_predicates({mapping.get(p, p): n})}
+    for new in mapping.values():
+        if new.lower() in actions:
+            raise UserError(f"{what}: {new!r} is the action {actions[new.lower()]!r} of {where}"
+                            f"{_case_note(new, actions[new.lower()])}; choose another name")
+        d = derived.get(new.lower())
+        if d is not None:
+            raise UserError(f"{what}: {new!r} is the predicate {d.name!r} derived from {d.base!r}"
+                            f"{_case_note(new, d.name)}; choose another name")
+
+
+def _case_note(name: str, other: str) -> str:
+    return "" if name == other else " (one name in PDDL, which ignores case)"
 
 
 def _pattern(mapping: Mapping[str, str]) -> re.Pattern:

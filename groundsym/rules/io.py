@@ -13,7 +13,9 @@ from typing import Any, Mapping
 
 from ..docreader import DocReader
 from ..fileio import atomic_write_json, atomic_write_text, read_json
+from ..identifiers import check_names
 from ..logic import is_variable, parse_atom
+from ..ppddl.compare import same_rule_key
 from .model import DefaultRule, Derived, Outcome, Rule, RuleSet
 
 SCHEMA = "groundsym.rules/1"
@@ -71,6 +73,8 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
     p_min_def = f.prob(f.get(doc, "p_min_default", "", (int, float)), "p_min_default")
     injective = f.get(doc, "injective", "", bool, True)
     derived = tuple(_derived(f, d, f"derived[{i}]", preds) for i, d in enumerate(f.get(doc, "derived", "", list, [])))
+    check_names([d.name for d in derived], f"{path}: derived")
+    _check_actions_are_no_predicates(f, prims, preds)
     if preds is not None:
         preds = {**preds, **{d.name: d.arity for d in derived}}
     defaults = []
@@ -79,9 +83,32 @@ def doc_to_rules(doc: Any, path: str | Path = "<rules>") -> tuple[RuleSet, dict[
         defaults.append((name, DefaultRule(f.prob(f.get(d, "p_noise", f"defaults[{i}]", (int, float)),
                                                   f"defaults[{i}].p_noise"))))
     rules = tuple(_rule(f, rd, f"rules[{i}]", preds, prims) for i, rd in enumerate(f.get(doc, "rules", "", list)))
+    _check_no_duplicates(f, rules)
     meta = {k: v for k, v in doc.items() if k not in ("schema", "rules", "defaults")}
     meta["covers"] = [rd.get("covers") for rd in doc["rules"]]
     return RuleSet(rules, tuple(defaults), p_min, p_min_def, injective, derived), meta
+
+
+def _check_actions_are_no_predicates(f: DocReader, prims: Mapping[str, int] | None,
+                                     preds: Mapping[str, int] | None) -> None:
+    """An action named as a predicate, up to case, is refused as ``rename`` refuses it: an
+    exported domain would give one PDDL name two meanings."""
+    folded = {p.lower(): p for p in preds or ()}
+    for a in prims or ():
+        if a.lower() in folded:
+            raise f.fail("primitives", f"{a!r} is also the predicate {folded[a.lower()]!r}"
+                                       f"{'' if a == folded[a.lower()] else ' (one name in PDDL, which ignores case)'}")
+
+
+def _check_no_duplicates(f: DocReader, rules: tuple[Rule, ...]) -> None:
+    """A rule given twice (up to its variables' names) is refused: both copies cover the same
+    states, so neither covers any, and the model's score silently falls (docs/reliability.md)."""
+    first: dict[tuple, int] = {}
+    for k, rule in enumerate(rules):
+        j = first.setdefault(same_rule_key(rule), k)
+        if j != k:
+            raise f.fail(f"rules[{k}]", f"the same rule as rules[{j}] (action, context and outcomes, up to the "
+                                        "names of variables): neither would cover any state; remove one")
 
 
 def _derived_text(d: Derived) -> str:
@@ -104,6 +131,7 @@ def _derived(f: DocReader, d: Any, field: str, preds: Mapping[str, int] | None) 
         raise f.fail(f"{field}.holds_when_no", f"{atom.predicate!r} is not a declared predicate of arity {atom.arity}")
     if preds is not None and name in preds:
         raise f.fail(f"{field}.name", f"{name!r} is a declared predicate")
+    check_names([name], f"{f.path}: {field}.name", taken=preds or ())
     return Derived(name, atom.predicate, atom.arity, keep)
 
 
