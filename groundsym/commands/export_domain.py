@@ -19,7 +19,8 @@ from ..export import ExportOptions, build_export, plain_export
 from ..fileio import atomic_write_text
 from ..modeldir import Model, load_model
 from ..ppddl.determinize import MODES
-from ..ppddl.names import check_identifier, check_renames, parse_renames, write_renamed
+from ..identifiers import check_identifier
+from ..ppddl.names import check_renames, parse_renames, write_renamed
 from ..ppddl.rule_actions import NOISE_MODES
 
 NAME = "export-domain"

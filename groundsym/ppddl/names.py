@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ..errors import UserError
-from ..identifiers import RESERVED, check_identifier  # noqa: F401 (their home before groundsym.identifiers)
+from ..identifiers import check_identifier
 from ..fileio import atomic_write_json, atomic_write_text, read_json
 from ..rules.model import Derived
 
