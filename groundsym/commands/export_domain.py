@@ -17,9 +17,9 @@ from typing import Iterator
 from ..errors import UserError
 from ..export import ExportOptions, build_export, plain_export
 from ..fileio import atomic_write_text
+from ..identifiers import check_identifier
 from ..modeldir import Model, load_model
 from ..ppddl.determinize import MODES
-from ..identifiers import check_identifier
 from ..ppddl.names import check_renames, parse_renames, write_renamed
 from ..ppddl.rule_actions import NOISE_MODES
 
