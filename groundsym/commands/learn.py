@@ -10,8 +10,9 @@ import sys
 from dataclasses import fields
 from pathlib import Path
 
+from .. import stopping
 from ..anneal import AnnealConfig, anneal
-from ..errors import UserError, interrupted
+from ..errors import UserError, interrupt_in
 from ..executors import add_executor_args, check_executor_options, make_executor
 from ..fileio import file_sha256, output_target
 from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
@@ -161,11 +162,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _learn_model(schema, args)
     except (KeyboardInterrupt, Exception) as exc:   # the CLI prints this as its one 'interrupted' line, exit 130
-        if not interrupted(exc):
+        stop = interrupt_in(exc)                     # (SIGTERM: 'terminated', 143; groundsym.stopping)
+        if stop is None:
             raise
         kept = (f"the search state is in {args.checkpoint}; the same command resumes it" if args.checkpoint
                 else "give --checkpoint FILE to keep the search state and resume")
-        raise KeyboardInterrupt(f"{args.output} unchanged; {kept}") from None
+        raise stopping.like(stop, f"{args.output} unchanged; {kept}") from None
 
 
 def _learn_model(schema: str, args: argparse.Namespace) -> int:
