@@ -166,3 +166,19 @@ def test_a_signal_ignored_at_the_start_stays_ignored(tmp_path):
     t = time.monotonic()
     rc, err, _ = stop_when(p, lambda: time.monotonic() - t > 1.5, signal.SIGHUP, group=False)
     assert rc == 0 and out.is_file(), err
+
+
+def test_a_checkpoint_is_named_only_once_it_exists(tmp_path, monkeypatch, capsys):
+    """Interrupted before the search's first round, ``learn --checkpoint CK`` has written no CK:
+    its line must not send the user to a file that does not exist."""
+    import groundsym.commands.learn as learn
+
+    def interrupted_while_preparing(*a, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(learn, "prepare", interrupted_while_preparing)
+    out, ck = tmp_path / "M", tmp_path / "M3.ck"
+    assert main([*LEARN, "-o", str(out), "--checkpoint", str(ck)]) == 130
+    assert not ck.exists()
+    assert capsys.readouterr().err == (f"groundsym learn: interrupted; {out} unchanged; no search state was saved "
+                                       f"yet ({ck} was not written); the same command starts again\n")

@@ -165,9 +165,16 @@ def run(args: argparse.Namespace) -> int:
         stop = interrupt_in(exc)                     # (SIGTERM: 'terminated', 143; groundsym.stopping)
         if stop is None:
             raise
-        kept = (f"the search state is in {args.checkpoint}; the same command resumes it" if args.checkpoint
-                else "give --checkpoint FILE to keep the search state and resume")
-        raise stopping.like(stop, f"{args.output} unchanged; {kept}") from None
+        raise stopping.like(stop, f"{args.output} unchanged; {_what_was_kept(args.checkpoint)}") from None
+
+
+def _what_was_kept(checkpoint: Path | None) -> str:
+    """The interrupted line's advice: the checkpoint is named only once a round has written it."""
+    if checkpoint is None:
+        return "give --checkpoint FILE to keep the search state and resume"
+    if not checkpoint.exists():
+        return f"no search state was saved yet ({checkpoint} was not written); the same command starts again"
+    return f"the search state is in {checkpoint}; the same command resumes it"
 
 
 def _learn_model(schema: str, args: argparse.Namespace) -> int:
