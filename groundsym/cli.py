@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         _settle(previous, argv is None)
 
 
-def _settle(previous: dict, as_program: bool) -> None:
+def _settle(previous: stopping.Installed, as_program: bool) -> None:
     """The command is over. Run as the program, Python would put back the default SIGINT action
     while it shuts down, so a Ctrl-C now would kill the exit silently with status 130, after the
     work was done and written (seen once in 20 interrupted runs of learn): it and the other
