@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DATA, ROOT, as_foreground_job, descendants
+from conftest import DATA, ROOT, alive, as_foreground_job, descendants, outliving
 
 LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts", "2", "--workers", "2",
          "--unary", "1", "--binary", "1", "--seed", "5", "--quiet"]
@@ -53,15 +53,13 @@ def interrupt_after(args: list[str], delay: float, after: Path | None = None, gr
     return p.returncode, err
 
 
-def outliving(pids: set[int], wait: float = 10) -> set[int]:
-    """Those of ``pids`` still running after up to ``wait`` seconds (then killed)."""
-    deadline = time.monotonic() + wait
-    while any(_alive(w) for w in pids) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    left = {w for w in pids if _alive(w)}
-    for w in left:
-        os.kill(w, signal.SIGKILL)
-    return left
+def run_to_the_end(args: list[str]) -> float:
+    """Run the command uninterrupted; the seconds it took."""
+    t = time.monotonic()
+    p = groundsym(args)
+    _, err = p.communicate(timeout=900)
+    assert p.returncode == 0, err
+    return time.monotonic() - t
 
 
 def symbols_doc(model: Path) -> dict:
@@ -140,22 +138,15 @@ def test_interrupted_at_20_random_moments_each_resume_equals_the_uninterrupted_r
     """The signal (Ctrl-C's SIGINT, or a scheduler's SIGTERM) to the whole process group at
     random moments of a 2-worker learn; each run stops with one line (or had finished), leaves no
     process running, and resumes to the uninterrupted run's symbols."""
-    whole = tmp_path / "whole"
-    t = time.monotonic()
-    p = groundsym([*LEARN, "-o", str(whole)])
-    _, err = p.communicate(timeout=900)
-    assert p.returncode == 0, err
-    span = time.monotonic() - t
-    want = symbols_doc(whole)
+    span = run_to_the_end([*LEARN, "-o", str(tmp_path / "whole")])
+    want = symbols_doc(tmp_path / "whole")
     rng = np.random.default_rng(seed)
     for k, delay in enumerate(rng.uniform(1.0, span, moments)):
         out, ck = tmp_path / f"M{k}", tmp_path / f"ck{k}.json"
         args = [*LEARN, "-o", str(out), "--checkpoint", str(ck)]
         rc, err = interrupt_after(args, float(delay), sig=sig)
         check_interrupted(rc, err, out, ck, sig)
-        p = groundsym(args)
-        _, err = p.communicate(timeout=900)
-        assert p.returncode == 0, err
+        run_to_the_end(args)
         assert symbols_doc(out) == want, f"resumed after {sig.name} at {delay:.2f} s differs"
 
 
@@ -185,13 +176,8 @@ def test_evaluate_stopped_at_8_random_moments_each_resume_equals_the_uninterrupt
     (or had finished), no process it started outlives it, no unit is half written and no
     temporary file stays; the same command then finishes with the uninterrupted run's table,
     units and models."""
-    whole = tmp_path / "whole"
-    t = time.monotonic()
-    p = groundsym([*EVALUATE, "-o", str(whole)])
-    _, err = p.communicate(timeout=900)
-    assert p.returncode == 0, err
-    span = time.monotonic() - t
-    want = evaluation(whole)
+    span = run_to_the_end([*EVALUATE, "-o", str(tmp_path / "whole")])
+    want = evaluation(tmp_path / "whole")
     said = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}[sig]
     for k, delay in enumerate(np.random.default_rng(seed).uniform(1.0, span, 8)):
         out = tmp_path / f"E{k}"
@@ -202,9 +188,7 @@ def test_evaluate_stopped_at_8_random_moments_each_resume_equals_the_uninterrupt
             assert not [q for q in tmp_path.rglob(".*")], f"temporary files left after {sig.name} at {delay:.2f} s"
             for q in (out / "runs").glob("*.json") if out.exists() else ():
                 json.loads(q.read_text())                     # each kept unit whole
-        p = groundsym([*EVALUATE, "-o", str(out)])
-        _, err = p.communicate(timeout=900)
-        assert p.returncode == 0, err
+        run_to_the_end([*EVALUATE, "-o", str(out)])
         assert evaluation(out) == want, f"resumed after {sig.name} at {delay:.2f} s differs"
 
 
@@ -249,14 +233,6 @@ def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
         assert not interrupted(unrelated)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
 def test_workers_end_when_the_main_process_is_killed(tmp_path):
     """``kill -9`` of learn's main process (or the out-of-memory killer): its workers see their
@@ -274,9 +250,9 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
         os.kill(p.pid, signal.SIGKILL)
         p.wait(timeout=10)
         deadline = time.monotonic() + 20
-        while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        while any(alive(w) for w in workers) and time.monotonic() < deadline:
             time.sleep(0.1)
-        left = [w for w in workers if _alive(w)]
+        left = [w for w in workers if alive(w)]
     finally:                          # never leave a worker behind, whatever failed
         for w in workers:
             try:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import DATA, ROOT, descendants
+from conftest import DATA, ROOT, descendants, outliving
 from groundsym.cli import main
 
 STOPS = [(signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")]
@@ -26,12 +26,11 @@ LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts
 
 
 @pytest.fixture(scope="module")
-def symbolic_model(tmp_path_factory) -> Path:
+def symbolic_model(blocks_traces, tmp_path_factory) -> Path:
     """A model of rules and reward learned from blocksworld's symbolic traces (for ``report``)."""
-    tmp = tmp_path_factory.mktemp("model")
-    assert main(["simulate", *PPDDL, "--traces", "4", "--length", "8", "-o", str(tmp / "t.json")]) == 0
-    assert main(["learn", str(tmp / "t.json"), "-o", str(tmp / "M"), "--quiet"]) == 0
-    return tmp / "M"
+    out = tmp_path_factory.mktemp("model") / "M"
+    assert main(["learn", str(blocks_traces), "-o", str(out), "--quiet"]) == 0
+    return out
 
 
 def commands(tmp: Path, model: Path) -> dict[str, tuple[list[str], str]]:
@@ -114,22 +113,6 @@ def stop_when(p: subprocess.Popen, ready, sig: int, group: bool, limit: float = 
     return p.returncode, err, workers
 
 
-def still_running(pids: set[int], wait: float = 5) -> set[int]:
-    """Those of ``pids`` still running (not zombies) after up to ``wait`` seconds; killed then."""
-    def alive(pid: int) -> bool:
-        try:
-            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-        except OSError:
-            return False
-    deadline = time.monotonic() + wait
-    while any(alive(w) for w in pids) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    left = {w for w in pids if alive(w)}
-    for w in left:
-        os.kill(w, signal.SIGKILL)
-    return left
-
-
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
 @pytest.mark.parametrize("sig,status,said,group", [(*STOPS[0], True), (*STOPS[1], False)],
                          ids=["SIGTERM-to-the-group", "SIGHUP-to-the-main-process"])
@@ -140,7 +123,7 @@ def test_learn_stopped_by_a_signal_ends_its_workers_and_keeps_the_checkpoint(sig
     assert len(workers) == 2
     assert rc == status and err == (f"groundsym learn: {said}; {out} unchanged; the search state is in {ck}; "
                                     "the same command resumes it\n"), err
-    assert still_running(workers) == set()
+    assert outliving(workers, 5) == set()
     assert hidden(tmp_path) == [] and not out.exists() and ck.is_file()
 
 
@@ -150,7 +133,7 @@ def test_evaluate_stopped_by_sigterm_ends_its_workers(tmp_path):
     p = start([*EVALUATE, "--runs", "40", "--workers", "2", "-o", str(out)])
     rc, err, workers = stop_when(p, lambda: len(descendants(p.pid)) == 2, signal.SIGTERM, group=False)
     assert rc == 143 and err == "groundsym evaluate: terminated\n", err
-    assert len(workers) == 2 and still_running(workers) == set()
+    assert len(workers) == 2 and outliving(workers, 5) == set()
     assert hidden(tmp_path) == [] and not (out / "results.json").exists()
 
 

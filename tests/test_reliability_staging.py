@@ -16,7 +16,6 @@ import pytest
 from conftest import DATA, ROOT
 from groundsym.cli import main
 
-BLOCKS = ROOT / "domains" / "reference" / "blocksworld"
 LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "20000", "--restarts", "2", "--workers", "1",
          "--seed", "5", "--quiet"]
 
@@ -24,12 +23,9 @@ pytestmark = pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the pr
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory) -> Path:
+def data(blocks_traces) -> Path:
     """Symbolic traces: ``learn`` on them takes a second or two and needs no search."""
-    path = tmp_path_factory.mktemp("staging") / "bw.json"
-    assert main(["simulate", "--domain", str(BLOCKS / "domain.ppddl"), "--problem", str(BLOCKS / "p01.ppddl"),
-                 "--traces", "4", "--length", "8", "--seed", "1", "-o", str(path)]) == 0
-    return path
+    return blocks_traces
 
 
 def stages(folder: Path) -> list[str]:
