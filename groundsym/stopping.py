@@ -53,12 +53,20 @@ def _raise(signum: int, frame: object) -> None:
     raise Terminated(signum)
 
 
+@dataclass(eq=False)
+class Installed:
+    """What :func:`install` replaced: the handlers of the signals, and the unraisable hook."""
+
+    handlers: dict[int, Handler] = field(default_factory=dict)
+    hook: Callable | None = None
+
+
 #: How long after an interrupt was dropped its signal is sent again: time for the code that
 #: dropped it (the hook, the rest of the callback) to return, so the handler runs after it.
 AGAIN_AFTER = 0.05
 
 
-_installed: list[object] = []    # non-empty while a command installed here runs
+_installed: list[Installed] = []    # non-empty while a command installed here runs
 
 
 def _send_again(signum: int) -> None:
@@ -75,14 +83,6 @@ def _send_again(signum: int) -> None:
     timer = threading.Timer(AGAIN_AFTER, send)
     timer.daemon = True
     timer.start()
-
-
-@dataclass(eq=False)
-class Installed:
-    """What :func:`install` replaced: the handlers of the signals, and the unraisable hook."""
-
-    handlers: dict[int, Handler] = field(default_factory=dict)
-    hook: Callable | None = None
 
 
 def install() -> Installed:
