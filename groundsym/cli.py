@@ -14,10 +14,13 @@ import pkgutil
 import signal
 import sys
 from types import ModuleType
+from typing import Callable
 
 from . import __version__
 from . import commands as _commands_pkg
-from .errors import UserError, interrupted
+from . import stopping
+from .errors import UserError, interrupt_in
+from .workers import STOP_SIGNALS
 
 
 class _Parser(argparse.ArgumentParser):
@@ -47,10 +50,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _build_parser_uninterrupted() -> argparse.ArgumentParser:
-    """The parser, with Ctrl-C held back while it imports every command (numpy, scipy, pybullet: a
-    second or two). A SIGINT inside some extension's import code was swallowed (the command then
-    ran to the end) or made Python kill itself at exit; held back, it arrives right after, here."""
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    """The parser, with Ctrl-C, SIGTERM and SIGHUP held back while it imports every command (numpy,
+    scipy, pybullet: a second or two). A SIGINT inside some extension's import code was swallowed
+    (the command then ran to the end) or made Python kill itself at exit; held back, it arrives
+    right after, here. The threads those imports start (OpenBLAS's) inherit the mask, so a signal
+    sent to the process is never handed to one of them meanwhile."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         return build_parser()
     finally:
@@ -58,40 +63,55 @@ def _build_parser_uninterrupted() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    status = _main(argv)
-    if argv is None:
-        # Run as the program, the command is over. Python puts back the default SIGINT action
-        # while it shuts down, so a Ctrl-C now would kill the exit silently with status 130,
-        # after the work was done and written (seen once in 20 interrupted runs of learn).
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    return status
+    """Run one command. SIGTERM and SIGHUP stop it as Ctrl-C does (``groundsym.stopping``); run as
+    the program (``argv`` None), every stopping signal is ignored once the command is over."""
+    previous = stopping.install()
+    try:
+        return _main(argv, lambda: _settle(previous, argv is None))
+    finally:
+        _settle(previous, argv is None)
 
 
-def _main(argv: list[str] | None) -> int:
+def _settle(previous: stopping.Installed, as_program: bool) -> None:
+    """The command is over. Run as the program, Python would put back the default SIGINT action
+    while it shuts down, so a Ctrl-C now would kill the exit silently with status 130, after the
+    work was done and written (seen once in 20 interrupted runs of learn): it and the other
+    stopping signals are ignored from here. Called in-process, the handlers before are restored."""
+    if as_program:
+        for sig in STOP_SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)
+    else:
+        stopping.restore(previous)
+
+
+def _main(argv: list[str] | None, finished: Callable[[], None]) -> int:
     try:
         parser = _build_parser_uninterrupted()
-    except KeyboardInterrupt:
-        print("groundsym: interrupted", file=sys.stderr)
-        return 130
-    args = parser.parse_args(argv)
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt as stop:
+        print(f"groundsym: {stopping.word(stop)}", file=sys.stderr)
+        return stopping.exit_status(stop)
     if not getattr(args, "_run", None):
         parser.print_help(sys.stderr)
         return 2
     args.argv = list(sys.argv if argv is None else ["groundsym", *argv])
     try:
-        return int(args._run(args) or 0)
+        status = int(args._run(args) or 0)
+        finished()            # inside the try: a signal just before this still stops the command
+        return status
     except UserError as exc:
         print(f"groundsym {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_status
     except BrokenPipeError:
         return 1
     except (KeyboardInterrupt, Exception) as exc:   # a command may say what was kept (a checkpoint);
-        if not interrupted(exc):                     # a Ctrl-C inside a compiled kernel comes wrapped
+        stop = interrupt_in(exc)                     # a Ctrl-C inside a compiled kernel comes wrapped
+        if stop is None:
             raise
         detail = f"; {exc}" if isinstance(exc, KeyboardInterrupt) and str(exc) else ""
         fresh = "\r\x1b[K" if sys.stderr.isatty() else ""   # over a progress bar's unfinished line
-        print(f"{fresh}groundsym {args.command}: interrupted{detail}", file=sys.stderr)
-        return 130
+        print(f"{fresh}groundsym {args.command}: {stopping.word(stop)}{detail}", file=sys.stderr)
+        return stopping.exit_status(stop)
 
 
 if __name__ == "__main__":  # pragma: no cover

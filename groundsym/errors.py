@@ -20,16 +20,21 @@ def where(path: object, field: str | None = None) -> str:
 
 
 def interrupted(exc: BaseException) -> bool:
-    """Is ``exc`` a Ctrl-C? A KeyboardInterrupt, or an error raised because one arrived inside
-    compiled code: SIGINT's handler raises KeyboardInterrupt while a numba kernel runs, and the
-    kernel's dispatcher then reports a SystemError ("returned a result with an exception set") or,
-    while it converts the arguments, a TypeError ("can't unbox"), each with the KeyboardInterrupt
-    as its cause or context."""
+    """Is ``exc`` a Ctrl-C (or SIGTERM, SIGHUP: ``groundsym.stopping``)? See :func:`interrupt_in`."""
+    return interrupt_in(exc) is not None
+
+
+def interrupt_in(exc: BaseException | None) -> KeyboardInterrupt | None:
+    """The KeyboardInterrupt ``exc`` is or was raised because of, else None. An error can be
+    raised because one arrived inside compiled code: SIGINT's handler raises KeyboardInterrupt
+    while a numba kernel runs, and the kernel's dispatcher then reports a SystemError ("returned a
+    result with an exception set") or, while it converts the arguments, a TypeError ("can't
+    unbox"), each with the KeyboardInterrupt as its cause or context."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
-            return True
+            return exc
         seen.add(id(exc))
         # ``raise ... from None`` says the error it was raised in is not its cause
         exc = exc.__cause__ or (None if exc.__suppress_context__ else exc.__context__)
-    return False
+    return None

@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
+from . import staging
 from .errors import UserError
 from .fileio import atomic_write_json, current_umask, dumps_json, file_sha256, read_json
 from .provenance import provenance
@@ -238,13 +238,16 @@ def model_transaction(d: str | Path) -> Iterator[Path]:
     """Build a model in a sibling staging folder (yielded), then put it at ``d`` in place of the old.
 
     On an exception or Ctrl-C the staging folder goes and ``d`` is untouched. Files at ``d`` that
-    are not model parts (a checkpoint, say) are carried over into the new directory.
+    are not model parts (a checkpoint, say) are carried over into the new directory. The folder's
+    name records its owner (``groundsym.staging``), so one a hard kill left behind is removed by the
+    next transaction on ``d`` once its owner is dead.
     """
     d = Path(os.path.abspath(d))
     check_model_output(d)
     try:
         d.parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".{d.name}.new-", dir=d.parent))
+        staging.remove_stale(d)    # left by writers killed outright (kill -9); a live one's stays
+        stage = staging.make(d)
         os.chmod(stage, 0o777 & ~current_umask())   # mkdtemp makes 0700; give the folder the user's usual mode
     except OSError as exc:
         raise UserError(f"{d}: cannot write ({exc.strerror or exc})") from None

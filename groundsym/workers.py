@@ -14,9 +14,11 @@ not stop within 40 s of a SIGINT to its main process. Here each worker talks to 
 process over its own pipe, and stopping is SIGKILL then join, which waits on nothing a worker
 could hold.
 
-Workers ignore SIGINT: Ctrl-C reaches the whole process group, and only the main process acts on
-it. SIGINT is held back while the workers are forked (a Ctrl-C landing in Python's fork handlers
-was dropped, one in a half-started worker killed it); :func:`running` lets it in once every worker
+Workers ignore SIGINT, SIGTERM and SIGHUP (:data:`STOP_SIGNALS`): Ctrl-C reaches the whole
+process group, a scheduler's SIGTERM often every process of the job, and only the main process
+acts on them (the CLI turns SIGTERM and SIGHUP into Ctrl-C's exception, ``groundsym.stopping``).
+They are held back while the workers are forked (a Ctrl-C landing in Python's fork handlers was
+dropped, one in a half-started worker killed it); :func:`running` lets them in once every worker
 is up, inside the block whose exit kills them.
 
 Why fork, for ``evaluate`` too (it used to spawn, through ``concurrent.futures``; the choice came
@@ -49,9 +51,10 @@ from typing import Any, Callable, Iterator, Sequence
 CONTEXT = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
 
 #: The signals only the main process acts on: held back while the workers fork, ignored by them.
-#: A signal that should stop the workers as Ctrl-C does (SIGTERM) joins here, with its handler
-#: installed in :func:`running`.
-STOP_SIGNALS = frozenset({signal.SIGINT})
+#: Ctrl-C, and SIGTERM and SIGHUP, which the CLI raises as Ctrl-C's kin (``groundsym.stopping``):
+#: a scheduler or ``systemctl stop`` may send SIGTERM to every process of the job, and a worker
+#: killed by it would look to the main process like one that crashed.
+STOP_SIGNALS = frozenset({signal.SIGINT, *(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))})
 
 
 def no_init() -> None:
@@ -60,7 +63,7 @@ def no_init() -> None:
 
 def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
            main_ends: Sequence[Connection] = ()) -> None:
-    """A worker: ignore SIGINT, close the main process's pipe ends it inherited, initialise, then
+    """A worker: ignore the stopping signals, close the main process's pipe ends it inherited, initialise, then
     run ``(function, job)`` pairs until the pipe closes or brings None; each answer is
     ``(True, result)`` or ``(False, exception)``.
 
@@ -188,8 +191,9 @@ def running(n: int, init: Callable[..., None] = no_init, init_args: tuple = (), 
     once every worker is up; killed at once when the block raises (Ctrl-C, an error, the consumer
     of :meth:`Workers.as_completed` going away), closed when it ends.
 
-    The one place where workers start and stop: a handler that makes another signal stop them
-    like Ctrl-C (SIGTERM) belongs here, around the ``yield``."""
+    The one place where workers start and stop. SIGTERM and SIGHUP stop them as Ctrl-C does
+    because the CLI raises them as a KeyboardInterrupt (``groundsym.stopping``), which the block
+    sees like any other."""
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         workers = Workers(n, init, init_args, ctx=ctx)

@@ -1,7 +1,10 @@
 import os
 import signal
 import sys
+import time
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
@@ -33,3 +36,36 @@ def descendants(pid: int) -> set[int]:
         found |= new
         grew = bool(new)
     return found - {pid}
+
+
+def alive(pid: int) -> bool:
+    """Is process ``pid`` running (a zombie, ended but not yet reaped, is not)?"""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def outliving(pids: set[int], wait: float = 10) -> set[int]:
+    """Those of ``pids`` still running after up to ``wait`` seconds; they are killed then, so a
+    failing test leaves nothing behind."""
+    deadline = time.monotonic() + wait
+    while any(alive(w) for w in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = {w for w in pids if alive(w)}
+    for w in left:
+        os.kill(w, signal.SIGKILL)
+    return left
+
+
+@pytest.fixture(scope="session")
+def blocks_traces(tmp_path_factory) -> Path:
+    """Symbolic traces from the reference blocks world (simulate is fast and needs no physics)."""
+    from groundsym.cli import main
+
+    blocks = ROOT / "domains" / "reference" / "blocksworld"
+    path = tmp_path_factory.mktemp("blocks") / "bw.json"
+    assert main(["simulate", "--domain", str(blocks / "domain.ppddl"), "--problem", str(blocks / "p01.ppddl"),
+                 "--traces", "4", "--length", "8", "--seed", "1", "-o", str(path)]) == 0
+    return path

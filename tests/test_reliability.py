@@ -35,12 +35,8 @@ def one_line_error(capsys, *want: str) -> str:
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory) -> Path:
-    """Symbolic traces from the reference blocks world (simulate is fast and needs no physics)."""
-    path = tmp_path_factory.mktemp("rel") / "bw.json"
-    assert main(["simulate", "--domain", str(REFERENCE / "domain.ppddl"), "--problem", str(REFERENCE / "p01.ppddl"),
-                 "--traces", "4", "--length", "8", "--seed", "1", "-o", str(path)]) == 0
-    return path
+def data(blocks_traces) -> Path:
+    return blocks_traces
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DATA, ROOT, as_foreground_job, descendants
+from conftest import DATA, ROOT, alive, as_foreground_job, descendants, outliving
 
 LEARN = ["learn", str(DATA / "tower_small.json"), "--evals", "2000", "--restarts", "2", "--workers", "2",
          "--unary", "1", "--binary", "1", "--seed", "5", "--quiet"]
@@ -29,22 +29,37 @@ def groundsym(args: list[str], **kw) -> subprocess.Popen:
 
 
 def interrupt_after(args: list[str], delay: float, after: Path | None = None, group: bool = True,
-                    limit: float = 60) -> tuple[int, str]:
+                    limit: float = 60, sig: int = signal.SIGINT) -> tuple[int, str]:
     """Run, then Ctrl-C as a terminal sends it: SIGINT to the whole process group (``group``;
     else to the main process alone, as ``kill -INT PID`` does), ``delay`` seconds after the start
-    (or after the file ``after`` appears); the run must end within ``limit`` seconds of it."""
+    (or after the file ``after`` appears); the run must end within ``limit`` seconds of it. With
+    ``sig`` SIGTERM, as a scheduler stops a job. The processes the run had started when the
+    signal came must all have ended within 10 s of it."""
     p = groundsym(args)
     while after is not None and not after.exists() and p.poll() is None:
         time.sleep(0.05)
     time.sleep(delay)
+    started: set[int] = set()
     if p.poll() is None:
-        os.killpg(p.pid, signal.SIGINT) if group else os.kill(p.pid, signal.SIGINT)
+        started = descendants(p.pid)
+        os.killpg(p.pid, sig) if group else os.kill(p.pid, sig)
     try:
         _, err = p.communicate(timeout=limit)
     except subprocess.TimeoutExpired:     # the bug this guards against: a pool waiting forever
         os.killpg(p.pid, signal.SIGKILL)
-        pytest.fail(f"learn did not stop within {limit} s of SIGINT ({args})")
+        pytest.fail(f"{args[0]} did not stop within {limit} s of {signal.Signals(sig).name} ({args})")
+    left = outliving(started)
+    assert not left, f"processes {left} outlived {args[0]} stopped by {signal.Signals(sig).name}"
     return p.returncode, err
+
+
+def run_to_the_end(args: list[str]) -> float:
+    """Run the command uninterrupted; the seconds it took."""
+    t = time.monotonic()
+    p = groundsym(args)
+    _, err = p.communicate(timeout=900)
+    assert p.returncode == 0, err
+    return time.monotonic() - t
 
 
 def symbols_doc(model: Path) -> dict:
@@ -53,13 +68,14 @@ def symbols_doc(model: Path) -> dict:
     return doc
 
 
-def check_interrupted(rc: int, err: str, out: Path, checkpoint: Path) -> None:
+def check_interrupted(rc: int, err: str, out: Path, checkpoint: Path, sig: int = signal.SIGINT) -> None:
     if rc == 0:                          # the run had finished before the signal came
         return
-    assert rc == 130, err
+    said = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}[sig]
+    assert rc == 128 + sig, err
     assert err.count("\n") == 1 and "Traceback" not in err, err
-    early = err == "groundsym: interrupted\n"      # while the commands were still loading
-    assert early or ("groundsym learn: interrupted" in err and str(checkpoint) in err), err
+    early = err == f"groundsym: {said}\n"      # while the commands were still loading
+    assert early or (f"groundsym learn: {said}" in err and str(checkpoint) in err), err
     assert not out.exists()              # no half-written model
     assert not [p for p in out.parent.iterdir() if p.name.startswith(f".{out.name}.")]
 
@@ -116,24 +132,64 @@ def test_sigint_to_the_main_process_alone_stops_learn_promptly(tmp_path):
 
 
 @pytest.mark.slow
-def test_interrupted_at_20_random_moments_each_resume_equals_the_uninterrupted_run(tmp_path):
-    whole = tmp_path / "whole"
-    t = time.monotonic()
-    p = groundsym([*LEARN, "-o", str(whole)])
-    _, err = p.communicate(timeout=900)
-    assert p.returncode == 0, err
-    span = time.monotonic() - t
-    want = symbols_doc(whole)
-    rng = np.random.default_rng(15)
-    for k, delay in enumerate(rng.uniform(1.0, span, 20)):
+@pytest.mark.parametrize("sig,moments,seed", [(signal.SIGINT, 20, 15), (signal.SIGTERM, 10, 17)],
+                         ids=["SIGINT", "SIGTERM"])
+def test_interrupted_at_20_random_moments_each_resume_equals_the_uninterrupted_run(tmp_path, sig, moments, seed):
+    """The signal (Ctrl-C's SIGINT, or a scheduler's SIGTERM) to the whole process group at
+    random moments of a 2-worker learn; each run stops with one line (or had finished), leaves no
+    process running, and resumes to the uninterrupted run's symbols."""
+    span = run_to_the_end([*LEARN, "-o", str(tmp_path / "whole")])
+    want = symbols_doc(tmp_path / "whole")
+    rng = np.random.default_rng(seed)
+    for k, delay in enumerate(rng.uniform(1.0, span, moments)):
         out, ck = tmp_path / f"M{k}", tmp_path / f"ck{k}.json"
         args = [*LEARN, "-o", str(out), "--checkpoint", str(ck)]
-        rc, err = interrupt_after(args, float(delay))
-        check_interrupted(rc, err, out, ck)
-        p = groundsym(args)
-        _, err = p.communicate(timeout=900)
-        assert p.returncode == 0, err
-        assert symbols_doc(out) == want, f"resumed after SIGINT at {delay:.2f} s differs"
+        rc, err = interrupt_after(args, float(delay), sig=sig)
+        check_interrupted(rc, err, out, ck, sig)
+        run_to_the_end(args)
+        assert symbols_doc(out) == want, f"resumed after {sig.name} at {delay:.2f} s differs"
+
+
+EVALUATE = ["evaluate", "--sim", "tower", "--methods", "random,prada", "--symbol-data", "20", "--model-traces", "1",
+            "--runs", "3", "--evals", "400", "--restarts", "2", "--starts", "1", "--steps", "3",
+            "--planner-opt", "prada:samples=100", "--seed", "11", "--workers", "2", "--quiet"]
+
+
+def evaluation(out: Path) -> tuple[dict, dict, dict]:
+    """An evaluation folder's table (less the command line), units (less their wall times) and models."""
+    results = json.loads((out / "results.json").read_text())
+    (results["meta"].get("provenance") or {}).pop("command", None)
+    units = {}
+    for p in sorted((out / "runs").glob("*.json")):
+        doc = json.loads(p.read_text())
+        doc.pop("seconds")
+        units[p.name] = doc
+    models = {str(p.relative_to(out)): p.read_text() for p in sorted((out / "models").rglob("*")) if p.is_file()}
+    return results, units, models
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig,seed", [(signal.SIGINT, 21), (signal.SIGTERM, 22)], ids=["SIGINT", "SIGTERM"])
+def test_evaluate_stopped_at_8_random_moments_each_resume_equals_the_uninterrupted_run(tmp_path, sig, seed):
+    """``evaluate --workers 2`` (symbols learned, two planners, three units) stopped by the signal
+    to its process group at 8 random moments: each run ends with one line and 128 + the signal
+    (or had finished), no process it started outlives it, no unit is half written and no
+    temporary file stays; the same command then finishes with the uninterrupted run's table,
+    units and models."""
+    span = run_to_the_end([*EVALUATE, "-o", str(tmp_path / "whole")])
+    want = evaluation(tmp_path / "whole")
+    said = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}[sig]
+    for k, delay in enumerate(np.random.default_rng(seed).uniform(1.0, span, 8)):
+        out = tmp_path / f"E{k}"
+        rc, err = interrupt_after([*EVALUATE, "-o", str(out)], float(delay), sig=sig)
+        if rc != 0:
+            assert rc == 128 + sig and err in (f"groundsym: {said}\n", f"groundsym evaluate: {said}\n"), err
+            assert not (out / "results.json").exists()
+            assert not [q for q in tmp_path.rglob(".*")], f"temporary files left after {sig.name} at {delay:.2f} s"
+            for q in (out / "runs").glob("*.json") if out.exists() else ():
+                json.loads(q.read_text())                     # each kept unit whole
+        run_to_the_end([*EVALUATE, "-o", str(out)])
+        assert evaluation(out) == want, f"resumed after {sig.name} at {delay:.2f} s differs"
 
 
 def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
@@ -177,14 +233,6 @@ def test_a_ctrl_c_inside_compiled_kernels_is_told_apart_from_errors():
         assert not interrupted(unrelated)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
 def test_workers_end_when_the_main_process_is_killed(tmp_path):
     """``kill -9`` of learn's main process (or the out-of-memory killer): its workers see their
@@ -202,9 +250,9 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
         os.kill(p.pid, signal.SIGKILL)
         p.wait(timeout=10)
         deadline = time.monotonic() + 20
-        while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        while any(alive(w) for w in workers) and time.monotonic() < deadline:
             time.sleep(0.1)
-        left = [w for w in workers if _alive(w)]
+        left = [w for w in workers if alive(w)]
     finally:                          # never leave a worker behind, whatever failed
         for w in workers:
             try:

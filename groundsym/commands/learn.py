@@ -10,8 +10,9 @@ import sys
 from dataclasses import fields
 from pathlib import Path
 
+from .. import stopping
 from ..anneal import AnnealConfig, anneal
-from ..errors import UserError, interrupted
+from ..errors import UserError, interrupt_in
 from ..executors import add_executor_args, check_executor_options, make_executor
 from ..fileio import file_sha256, output_target
 from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
@@ -165,11 +166,19 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _learn_model(schema, args)
     except (KeyboardInterrupt, Exception) as exc:   # the CLI prints this as its one 'interrupted' line, exit 130
-        if not interrupted(exc):
+        stop = interrupt_in(exc)                     # (SIGTERM: 'terminated', 143; groundsym.stopping)
+        if stop is None:
             raise
-        kept = (f"the search state is in {args.checkpoint}; the same command resumes it" if args.checkpoint
-                else "give --checkpoint FILE to keep the search state and resume")
-        raise KeyboardInterrupt(f"{args.output} unchanged; {kept}") from None
+        raise stopping.like(stop, f"{args.output} unchanged; {_what_was_kept(args.checkpoint)}") from None
+
+
+def _what_was_kept(checkpoint: Path | None) -> str:
+    """The interrupted line's advice: the checkpoint is named only once a round has written it."""
+    if checkpoint is None:
+        return "give --checkpoint FILE to keep the search state and resume"
+    if not checkpoint.exists():
+        return f"no search state was saved yet ({checkpoint} was not written); the same command starts again"
+    return f"the search state is in {checkpoint}; the same command resumes it"
 
 
 def _learn_model(schema: str, args: argparse.Namespace) -> int:
