@@ -38,9 +38,13 @@ import numpy as np
 ROOT = Path(os.environ.get("GROUNDSYM_BENCH_ROOT") or Path(__file__).resolve().parents[1])
 sys.path.insert(0, str(ROOT))
 
-from groundsym.anneal import AnnealConfig, random_symbol, advance, start_restart  # noqa: E402
+from groundsym import anneal  # noqa: E402
+from groundsym.anneal import AnnealConfig, advance, start_restart  # noqa: E402
 from groundsym.loss import Loss, prepare  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
+
+# --before runs this script on older code, where the proposal was the private anneal._random_symbol
+random_symbol = getattr(anneal, "random_symbol", None) or getattr(anneal, "_random_symbol")
 
 
 def cpu_rate(fn, n: int) -> float:
