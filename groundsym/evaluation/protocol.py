@@ -193,10 +193,12 @@ def _status(out: Path, cfg: EvalConfig, runs: int) -> str:
 
 
 def write_outputs(out: Path, results: Mapping[str, Any]) -> None:
-    atomic_write_json(out / "results.json", results)
+    """results.md and results.png, then results.json last: a folder with results.json holds the whole
+    evaluation, even when a stop lands between the files (drawing the chart takes a second)."""
     atomic_write_text(out / "results.md", markdown_table(results))
     if results["methods"]:
         atomic_write_bytes(out / "results.png", bar_chart(results))
+    atomic_write_json(out / "results.json", results)
 
 
 def optimum_of(sim_name: str, options: Mapping[str, str]) -> float | None:
