@@ -12,7 +12,8 @@ from groundsym.collect import collect_trace, trace_seeds
 from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.traces import read_traces
-from sims.tower import GAMMA, MIN_GAP, REGION_X, REGION_Y, TowerSim, optimal_episode_value
+from sims.tower import GAMMA, TowerSim, optimal_episode_value
+from sims.tower_layout import MIN_GAP, REGION_X, REGION_Y, WORKSPACES
 from sims.tower_kinematics import ArmKinematics, down
 from sims.tower_optimum import best_plan, ground_plan
 from sims import tower_skills
