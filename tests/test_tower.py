@@ -14,7 +14,7 @@ from groundsym.logic import Atom
 from groundsym.traces import read_traces
 from sims.tower import GAMMA, TowerSim, optimal_episode_value
 from sims.tower_layout import MIN_GAP, REGION_X, REGION_Y, WORKSPACES
-from sims.tower_kinematics import ArmKinematics, down
+from sims.tower_kinematics import ArmKinematics, IKError, down
 from sims.tower_optimum import best_plan, ground_plan
 from sims import tower_skills
 from sims.tower_approach import turns
@@ -183,6 +183,32 @@ def test_twenty_objects_start_apart_on_the_wide_table_and_the_far_ones_stack():
         after = sim.step(A("openHandOver", b))
         assert A("on", a, b) in after.truth
         assert sim.events.get("arm_collisions", 0) == 0 and sim.events.get("ik_failures", 0) == 0
+
+
+def test_every_point_of_the_wide_sector_has_a_reachable_grasp_yaw():
+    """Over a grid of the wide workspace's sector (4 radii x 7 angles), at the grasp heights and
+    the release heights over towers of up to 6 cubes, for grasp yaws across their range: one of
+    the hand turns the planner tries (``turns``, which grasp a cube the same way) has an IK
+    solution from home (at the sides the wrist cannot turn as far one way)."""
+    inner, outer, half_angle = WORKSPACES["wide"].sector
+    heights = [0.02, 0.025] + [TIP_BELOW_TCP + 0.012 + k * 0.05 + 0.025 for k in range(1, 7)]
+    kin = ArmKinematics()
+
+    def reachable(target: np.ndarray, yaw: float) -> bool:
+        for turned in turns(yaw):
+            try:
+                kin.solve(target, turned, HOME_Q)
+                return True
+            except IKError:
+                pass
+        return False
+    try:
+        missed = [(r, a, z, yaw) for r in np.linspace(inner, outer, 4) for a in np.linspace(-half_angle, half_angle, 7)
+                  for z in heights for yaw in (-np.pi / 2 + 0.01, -np.pi / 4 - 0.3, 0.0, np.pi / 4 + 0.3, np.pi / 2 - 0.01)
+                  if not reachable(np.array([r * np.cos(a), r * np.sin(a), z]), yaw)]
+    finally:
+        kin.close()
+    assert not missed
 
 
 def test_wide_cell_traces_record_the_workspace_and_default_traces_do_not():
