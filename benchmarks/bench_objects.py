@@ -1,4 +1,4 @@
-"""PRADA and the NID rule learner against the number of objects, 7 to 40 (issue 35), on one core.
+"""PRADA and the NID rule learner against the number of objects, 7 to 40, on one core.
 
 Real scenes hold 10-40 objects; the tower cell's default holds 7 and ``workspace=wide`` 20
 (docs/tower.md). This benchmark prints, per object count M, CPU seconds (``time.process_time``,
