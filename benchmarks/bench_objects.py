@@ -142,7 +142,8 @@ def rules_profile(m: int, transitions: int, seed: int, top: int = 8) -> list[tup
     return [(f"{Path(f).relative_to(ROOT)}:{line} {name}", s[3] / total) for (f, line, name), s in ranked]
 
 
-def plot(doc: dict[str, Any], path: Path) -> None:
+def objects_png(doc: dict[str, Any]) -> bytes:
+    """The curve: CPU seconds against the object count, both axes logarithmic."""
     import io
 
     import matplotlib
@@ -160,14 +161,12 @@ def plot(doc: dict[str, Any], path: Path) -> None:
     ax.set_yscale("log")
     ax.set_xticks([x["objects"] for x in p], [str(x["objects"]) for x in p])
     ax.minorticks_off()
-    ax.set_xlabel("objects M")
-    ax.set_ylabel("CPU seconds")
-    ax.set_title("PRADA and the rule learner against the number of objects")
+    ax.set(xlabel="objects M", ylabel="CPU seconds", title="PRADA and the rule learner against the number of objects")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    atomic_write_bytes(path, buf.getvalue())
+    out = io.BytesIO()
+    fig.savefig(out, format="png")
+    return out.getvalue()
 
 
 def main() -> int:
@@ -209,7 +208,7 @@ def main() -> int:
             print(f"  {share:6.1%}  {name}")
     if args.out:
         atomic_write_json(args.out / "objects.json", doc)
-        plot(doc, args.out / "objects.png")
+        atomic_write_bytes(args.out / "objects.png", objects_png(doc))
         print(f"wrote {args.out / 'objects.json'} and objects.png")
     return 0
 
