@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.collect import trace_seeds  # noqa: E402
+from groundsym.errors import UserError  # noqa: E402
 from groundsym.fileio import atomic_write_bytes, atomic_write_json, read_json  # noqa: E402
 from groundsym.logic import Atom  # noqa: E402
 from groundsym.options import split_key_values  # noqa: E402
@@ -169,9 +170,13 @@ def main() -> int:
         print(table(doc["levels"]), end="")
         plot(doc["levels"], args.plot / "reliability.png")
         return 0
-    given = split_key_values(args.sim_opt, "--sim-opt")
-    given.pop("noise", None)                                  # the levels set it
-    best = optimal_episode_value(given)
+    try:
+        given = split_key_values(args.sim_opt, "--sim-opt")
+        given.pop("noise", None)                              # the levels set it
+        best = optimal_episode_value(given)                   # checks the options before any physics
+    except UserError as exc:
+        print(f"tower_reliability: {exc}", file=sys.stderr)
+        return 2
     doc: dict[str, Any] = {"levels": [], "optimum": best, "sim_options": given}
     for level in (float(x) / 1000 for x in args.levels.split(",") if x.strip()):
         with TowerSim(**given, noise=level) as sim:
