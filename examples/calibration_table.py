@@ -1,0 +1,172 @@
+"""Calibration of learned outcome probabilities (issue 38): ECE and reliability diagrams.
+
+Two settings, each scored on held-out transitions with ``groundsym.rules.calibration`` (what
+``groundsym score`` reports):
+
+* ``blocks``: the reference blocks world with inapplicable actions, as docs/rules.md "Little data":
+  200 training transitions per seed (10 random walks of 20 steps, a quarter of the steps an
+  inapplicable action), 2,000 held-out transitions from seed 99; also the true model.
+* ``tower``: the tower cell as docs/planning.md: symbols learned on 160 random transitions (16
+  traces of 10, 15,000 loss evaluations, 4 restarts), rules from 9 fresh model traces, held out 30
+  traces (300 transitions, seed 999) abstracted with the learned symbols; and the same model traces
+  and held-out traces abstracted with the true ``inhand``, ``on`` (and ``big``) instead.
+
+Each run's model and scores are kept in ``--out`` (``runs.jsonl``), so an interrupted run resumes.
+The table is the mean ECE over runs (+- standard error) and the ECE of all runs' predictions pooled;
+``--out`` gets one pooled reliability diagram per row.
+
+    python examples/calibration_table.py --setting blocks --seeds 1-13 --out results/calib
+    python examples/calibration_table.py --setting tower --seeds 1-5 --out results/calib
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from groundsym.cli import main as cli  # noqa: E402
+from groundsym.evaluation.truth import TruthSymbols  # noqa: E402
+from groundsym.modeldir import learn_symbolic_model, load_model  # noqa: E402
+from groundsym.ppddl.parser import load  # noqa: E402
+from groundsym.ppddl.simulate import Task, simulate_traces  # noqa: E402
+from groundsym.ppddl.to_rules import domain_to_rules  # noqa: E402
+from groundsym.rules.calibration import BINS, Calibration, calibration, write_reliability_png  # noqa: E402
+from groundsym.rules.evaluate import score_ruleset  # noqa: E402
+from groundsym.rules.learner import examples_from_dataset, learn_rules, LearnOptions  # noqa: E402
+from groundsym.symbolic_traces import read_symbolic_traces  # noqa: E402
+from groundsym.traces import read_traces  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BLOCKS = ROOT / "domains" / "reference" / "blocksworld"
+TRUTH_ROWS = {"truth inhand,on": ("inhand", "on"), "truth inhand,on,big": ("inhand", "on", "big")}
+
+
+def seed_list(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out.extend(range(int(lo), int(hi or lo) + 1))
+    return out
+
+
+def row(name: str, seed: int, rs, test) -> dict:
+    cal = calibration(rs, test)
+    return {"row": name, "seed": seed, "mean_log_likelihood": score_ruleset(rs, test).mean_log_likelihood,
+            "rules": len(rs.rules), **cal.to_doc()}
+
+
+def blocks_runs(seed: int, options: LearnOptions) -> list[dict]:
+    domain, problem = load(BLOCKS / "domain.ppddl", BLOCKS / "p01.ppddl")
+    task = Task(domain, problem)
+    test = simulate_traces(task, 100, 20, np.random.default_rng(99), inapplicable=0.25)
+    train = simulate_traces(task, 10, 20, np.random.default_rng(seed), inapplicable=0.25)
+    rs, _ = learn_rules(examples_from_dataset(train), train.predicates, options, seed=seed, progress=False)
+    return [row("learned rules", seed, rs, test), row("true model", seed, domain_to_rules(domain), test)]
+
+
+def run_cli(*argv: str) -> None:
+    if cli(list(argv)) != 0:
+        raise SystemExit(f"failed: groundsym {' '.join(argv)}")
+
+
+def tower_runs(seed: int, work: Path, evals: int) -> list[dict]:
+    """One run: symbol data, model data, learned model; held-out traces abstracted both ways."""
+    work.mkdir(parents=True, exist_ok=True)
+    held = work.parent / "heldout.json"
+    if not held.exists():
+        run_cli("collect", "--sim", "tower", "--traces", "30", "--length", "10", "--seed", "999", "-o", str(held),
+                "--quiet")
+    for name, n, s in (("symbols.json", 16, 100 + seed), ("model-data.json", 9, 200 + seed)):
+        if not (work / name).exists():
+            run_cli("collect", "--sim", "tower", "--traces", str(n), "--length", "10", "--seed", str(s),
+                    "-o", str(work / name), "--quiet")
+    if not (work / "model" / "rules.json").exists():
+        run_cli("learn", str(work / "symbols.json"), "--model-data", str(work / "model-data.json"), "-o",
+                str(work / "model"), "--evals", str(evals), "--restarts", "4", "--workers", "1",
+                "--seed", str(seed), "--quiet")
+    run_cli("abstract", str(held), "--symbols", str(work / "model"), "-o", str(work / "heldout-symbolic.json"))
+    out = [row("learned symbols", seed, load_model(work / "model").rules,
+               read_symbolic_traces(work / "heldout-symbolic.json"))]
+    model_ds, held_ds = read_traces(work / "model-data.json"), read_traces(held)
+    for name, names in TRUTH_ROWS.items():
+        truth = TruthSymbols(names, {"inhand": 1, "on": 2, "big": 1})
+        learn_symbolic_model(truth.to_symbolic_dataset(model_ds), work / name.replace(" ", "-").replace(",", "-"),
+                             seed=seed, argv=["groundsym", "learn"], progress=False)
+        rs = load_model(work / name.replace(" ", "-").replace(",", "-")).rules
+        out.append(row(name, seed, rs, truth.to_symbolic_dataset(held_ds)))
+    return out
+
+
+def pooled(rows: list[dict]) -> Calibration:
+    """All runs' predictions in one set of bins (counts add; means are count-weighted)."""
+    count = np.zeros(BINS)
+    sum_p = np.zeros(BINS)
+    sum_y = np.zeros(BINS)
+    for r in rows:
+        for b in r["reliability"]:
+            count[b["bin"]] += b["count"]
+            sum_p[b["bin"]] += b["count"] * b["mean_p"]
+            sum_y[b["bin"]] += b["count"] * b["observed"]
+    safe = np.maximum(count, 1)
+    n = count.sum()
+    ece = float(np.sum(count / n * np.abs(sum_p / safe - sum_y / safe)))
+    covered = sum(r["covered"] for r in rows)
+    return Calibration(ece, int(n), covered, sum(r["default_covered"] for r in rows),
+                       sum(r["noise_predicted"] * r["covered"] for r in rows) / max(covered, 1),
+                       sum(r["noise_observed"] * r["covered"] for r in rows) / max(covered, 1),
+                       tuple(int(c) for c in count), tuple(map(float, sum_p / safe)), tuple(map(float, sum_y / safe)))
+
+
+def summarise(rows: list[dict], setting: str, out: Path) -> None:
+    print(f"| {setting}: row | runs | ECE mean +- se | pooled ECE | noise predicted / unexplained | "
+          f"default-covered share | held-out log-lik |")
+    print("|---|---|---|---|---|---|---|")
+    for name in dict.fromkeys(r["row"] for r in rows):
+        mine = [r for r in rows if r["row"] == name]
+        e = np.array([r["ece"] for r in mine])
+        se = e.std(ddof=1) / np.sqrt(len(e)) if len(e) > 1 else 0.0
+        cal = pooled(mine)
+        share = cal.default_covered / max(cal.covered + cal.default_covered, 1)
+        ll = np.mean([r["mean_log_likelihood"] for r in mine])
+        print(f"| {name} | {len(mine)} | {e.mean():.4f} +- {se:.4f} | {cal.ece:.4f} | {cal.noise_predicted:.3f} / "
+              f"{cal.noise_observed:.3f} | {share:.3f} | {ll:.4f} |")
+        write_reliability_png(out / f"reliability-{setting}-{name.replace(' ', '-').replace(',', '-')}.png", cal,
+                              f"{setting}: {name}, {len(mine)} runs pooled")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--setting", choices=("blocks", "tower"), required=True)
+    ap.add_argument("--seeds", default="1-13")
+    ap.add_argument("--evals", type=int, default=15_000, help="tower: loss evaluations per symbol search")
+    ap.add_argument("--learn-opt", default="", help="blocks: rule learner options KEY=VALUE,... (LearnOptions)")
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    tag = args.setting + (f"-{args.learn_opt}" if args.learn_opt else "")
+    log = args.out / f"runs-{tag}.jsonl"
+    done = [json.loads(x) for x in log.read_text().splitlines()] if log.exists() else []
+    seen = {r["seed"] for r in done}
+    opts = LearnOptions(**{k: type(getattr(LearnOptions(), k))(v) for k, v in
+                           (kv.split("=") for kv in args.learn_opt.split(",") if kv)})
+    for s in seed_list(args.seeds):
+        if s in seen:
+            continue
+        rows = blocks_runs(s, opts) if args.setting == "blocks" else \
+            tower_runs(s, args.out / "tower" / f"run{s}", args.evals)
+        with log.open("a") as f:
+            f.writelines(json.dumps(r) + "\n" for r in rows)
+        done.extend(rows)
+        print(f"seed {s}: " + ", ".join(f"{r['row']} ECE {r['ece']:.4f}" for r in rows), file=sys.stderr, flush=True)
+    summarise([r for r in done if r["seed"] in set(seed_list(args.seeds))], tag, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
