@@ -119,14 +119,14 @@ def pooled(rows: list[dict]) -> Calibration:
     covered = sum(r["covered"] for r in rows)
     return Calibration(ece, int(n), covered, sum(r["default_covered"] for r in rows),
                        sum(r["noise_predicted"] * r["covered"] for r in rows) / max(covered, 1),
-                       sum(r["noise_observed"] * r["covered"] for r in rows) / max(covered, 1),
+                       sum(r["noise_observed"] * r["covered"] for r in rows) / max(covered, 1), float("nan"),
                        tuple(int(c) for c in count), tuple(map(float, sum_p / safe)), tuple(map(float, sum_y / safe)))
 
 
 def summarise(rows: list[dict], setting: str, out: Path) -> None:
-    print(f"| {setting}: row | runs | ECE mean +- se | pooled ECE | noise predicted / unexplained | "
+    print(f"| {setting}: row | runs | ECE mean +- se | its floor (mean) | pooled ECE | noise predicted / unexplained | "
           f"default-covered share | held-out log-lik |")
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for name in dict.fromkeys(r["row"] for r in rows):
         mine = [r for r in rows if r["row"] == name]
         e = np.array([r["ece"] for r in mine])
@@ -134,7 +134,8 @@ def summarise(rows: list[dict], setting: str, out: Path) -> None:
         cal = pooled(mine)
         share = cal.default_covered / max(cal.covered + cal.default_covered, 1)
         ll = np.mean([r["mean_log_likelihood"] for r in mine])
-        print(f"| {name} | {len(mine)} | {e.mean():.4f} +- {se:.4f} | {cal.ece:.4f} | {cal.noise_predicted:.3f} / "
+        floor = np.mean([r["floor"] for r in mine])
+        print(f"| {name} | {len(mine)} | {e.mean():.4f} +- {se:.4f} | {floor:.4f} | {cal.ece:.4f} | {cal.noise_predicted:.3f} / "
               f"{cal.noise_observed:.3f} | {share:.3f} | {ll:.4f} |")
         write_reliability_png(out / f"reliability-{setting}-{name.replace(' ', '-').replace(',', '-')}.png", cal,
                               f"{setting}: {name}, {len(mine)} runs pooled")

@@ -60,6 +60,15 @@ def test_a_rule_set_on_five_transitions_by_hand():
     assert cal.ece == pytest.approx(0.5 * abs(0.7 - 0.5) + 0.5 * abs(0.2 - 0.25))
     assert cal.count[7] == 4 and cal.count[2] == 4 and sum(cal.count) == 8
     assert cal.noise_predicted == pytest.approx(0.1) and cal.noise_observed == pytest.approx(0.25)
+    assert 0 < cal.floor < 0.5
+
+
+def test_the_floor_is_what_a_calibrated_model_scores_by_chance():
+    from groundsym.rules.calibration import resampled_floor
+    assert resampled_floor([(1.0,), (0.0, 1.0)]) == 0.0          # certain outcomes never scatter
+    # one outcome of p = .5 (the rest noise), n times: E|share - .5| = sqrt(2 / pi) sd = sqrt(1 / (2 pi n))
+    for n in (10, 1000):
+        assert resampled_floor([(0.5,)] * n, draws=400) == pytest.approx(np.sqrt(1 / (2 * np.pi * n)), rel=0.15)
 
 
 def test_the_true_model_of_a_simulated_domain_is_calibrated_as_data_grow():
@@ -68,13 +77,15 @@ def test_the_true_model_of_a_simulated_domain_is_calibrated_as_data_grow():
     eces = [calibration(true, simulate_traces(task, n, 20, np.random.default_rng(7), inapplicable=0.25)).ece
             for n in (10, 100, 1000)]
     assert eces[2] < eces[1] < eces[0] and eces[2] < 0.005
+    big = simulate_traces(task, 1000, 20, np.random.default_rng(7), inapplicable=0.25)
+    assert calibration(true, big).ece < 2 * calibration(true, big).floor
     # a model whose probabilities are off is not: pickup slips 1 in 5, this one says never
     wrong = RuleSet(tuple(r if r.action.predicate != "pickup" else
                           Rule(r.action, r.context, r.outcomes, tuple(1.0 if p > 0.5 else 0.0 for p in r.probs), 0.0)
                           for r in true.rules), true.defaults, true.p_min, true.p_min_default, true.injective,
                     true.derived)
-    big = simulate_traces(task, 1000, 20, np.random.default_rng(7), inapplicable=0.25)
-    assert calibration(wrong, big).ece > 0.02
+    off = calibration(wrong, big)
+    assert off.ece > 0.02 and off.ece > 10 * off.floor
 
 
 @pytest.fixture(scope="module")

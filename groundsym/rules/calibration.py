@@ -13,6 +13,13 @@ estimator):
 * predictions fall into 10 equal-width bins of ``p`` (``[0, 0.1), ..., [0.9, 1]``);
 * ``ECE = sum_bins n_bin / N * |mean p in bin - share that happened in bin|``.
 
+A perfectly calibrated model does not score 0 on finite data: each bin's observed share scatters
+around its mean probability. ``floor`` is the ECE such a model would show on these very
+predictions, by consistency resampling (Broecker & Smith 2007, *Increasing the reliability of
+reliability diagrams*, Weather and Forecasting 22): outcomes drawn from the covering rules' own
+probabilities (noise included), the ECE averaged over ``FLOOR_DRAWS`` draws with a fixed seed. An
+ECE near its floor says the data cannot show miscalibration; above it, the rules are off.
+
 The noise outcome is not a prediction of a specific successor, so it is not binned: its mass is
 reported beside the ECE against the share of covered transitions no outcome explains. Transitions
 left to a default rule are counted, not binned (the default rule predicts "no change or noise",
@@ -32,6 +39,7 @@ from ..symbolic_traces import SymbolicDataset
 from .model import RuleSet
 
 BINS = 10
+FLOOR_DRAWS = 200
 
 
 @dataclass(frozen=True)
@@ -45,19 +53,20 @@ class Calibration:
     default_covered: int             # transitions left to a default rule (not binned)
     noise_predicted: float           # mean noise mass of the covering rules
     noise_observed: float            # share of covered transitions no outcome explains
+    floor: float                     # ECE of a perfectly calibrated model on these predictions
     count: tuple[int, ...]
     mean_p: tuple[float, ...]
     observed: tuple[float, ...]
 
     def to_doc(self) -> dict[str, Any]:
-        return {"ece": self.ece, "bins": BINS, "predictions": self.predictions, "covered": self.covered,
+        return {"ece": self.ece, "floor": self.floor, "bins": BINS, "predictions": self.predictions, "covered": self.covered,
                 "default_covered": self.default_covered, "noise_predicted": self.noise_predicted,
                 "noise_observed": self.noise_observed,
                 "reliability": [{"bin": k, "count": n, "mean_p": p, "observed": o}
                                 for k, (n, p, o) in enumerate(zip(self.count, self.mean_p, self.observed))]}
 
     def __str__(self) -> str:
-        return (f"expected calibration error {self.ece:.4f} over {self.predictions} outcome predictions "
+        return (f"expected calibration error {self.ece:.4f} (floor {self.floor:.4f}) over {self.predictions} outcome predictions "
                 f"({self.covered} covered transitions, {self.default_covered} left to default rules); "
                 f"noise mass {self.noise_predicted:.3f} predicted, {self.noise_observed:.3f} unexplained")
 
@@ -85,6 +94,7 @@ def calibration(rs: RuleSet, ds: SymbolicDataset, bins: int = BINS) -> Calibrati
     """Calibration of ``rs``'s outcome probabilities on the transitions of ``ds`` (module docstring)."""
     probs: list[float] = []
     happened: list[bool] = []
+    dists: list[tuple[float, ...]] = []
     covered = default = 0
     noise_p = noise_seen = 0.0
     for tr in ds.traces:
@@ -98,11 +108,36 @@ def calibration(rs: RuleSet, ds: SymbolicDataset, bins: int = BINS) -> Calibrati
             probs.extend(rule.probs)
             happened.extend(hits)
             noise_p += rule.noise
+            dists.append(rule.probs)
             noise_seen += not any(hits)
     ece, count, mean_p, observed = expected_calibration_error(np.array(probs), np.array(happened), bins)
     return Calibration(ece, len(probs), covered, default, noise_p / max(covered, 1), noise_seen / max(covered, 1),
-                       tuple(int(c) for c in count), tuple(float(p) for p in mean_p),
+                       resampled_floor(dists, bins), tuple(int(c) for c in count), tuple(float(p) for p in mean_p),
                        tuple(float(o) for o in observed))
+
+
+def resampled_floor(dists: list[tuple[float, ...]], bins: int = BINS, draws: int = FLOOR_DRAWS,
+                    seed: int = 0) -> float:
+    """Mean ECE when each prediction's outcome is drawn from its own rule's distribution."""
+    if not dists:
+        return 0.0
+    width = max(len(d) for d in dists) + 1                      # outcomes, then noise
+    table = np.zeros((len(dists), width))
+    real = np.zeros((len(dists), width), dtype=bool)
+    for i, d in enumerate(dists):
+        table[i, :len(d)] = d
+        table[i, -1] = max(0.0, 1.0 - sum(d))
+        real[i, :len(d)] = True
+    cum = np.cumsum(table, axis=1)
+    cum[:, -1] = np.inf
+    rng = np.random.default_rng(seed)
+    probs = table[real]
+    total = 0.0
+    for _ in range(draws):
+        drawn = (rng.random(len(dists))[:, None] < cum).argmax(axis=1)
+        hit = np.arange(width)[None, :] == drawn[:, None]
+        total += expected_calibration_error(probs, hit[real].astype(float), bins)[0]
+    return total / draws
 
 
 def reliability_png(cal: Calibration, title: str = "") -> bytes:
@@ -128,7 +163,8 @@ def reliability_png(cal: Calibration, title: str = "") -> bytes:
     top.set_xlim(0, 1)
     top.set_ylim(0, 1)
     top.legend(loc="upper left", fontsize=8)
-    top.set_title((title + "\n" if title else "") + f"ECE {cal.ece:.4f}, {cal.predictions} predictions",
+    top.set_title((title + "\n" if title else "") + f"ECE {cal.ece:.4f}" + (f" (floor {cal.floor:.4f})" if np.isfinite(cal.floor) else "")
+                  + f", {cal.predictions} predictions",
                   fontsize=9)
     bottom.bar(edges[:-1], cal.count, width=1.0 / k, align="edge", color="0.6", ec="0.3")
     bottom.set_yscale("symlog")
