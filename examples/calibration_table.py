@@ -36,10 +36,9 @@ from groundsym.modeldir import learn_symbolic_model, load_model  # noqa: E402
 from groundsym.ppddl.parser import load  # noqa: E402
 from groundsym.ppddl.simulate import Task, simulate_traces  # noqa: E402
 from groundsym.ppddl.to_rules import domain_to_rules  # noqa: E402
-from groundsym.rules.calibration import BINS, Calibration, calibration, write_reliability_png  # noqa: E402
+from groundsym.rules.calibration import calibration, pooled_calibration, write_reliability_png  # noqa: E402
 from groundsym.rules.evaluate import score_ruleset  # noqa: E402
 from groundsym.rules.learner import examples_from_dataset, learn_rules, LearnOptions  # noqa: E402
-from groundsym.symbolic_traces import read_symbolic_traces  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -61,13 +60,14 @@ def row(name: str, seed: int, rs, test) -> dict:
             "rules": len(rs.rules), **cal.to_doc()}
 
 
-def blocks_runs(seed: int, options: LearnOptions) -> list[dict]:
+def blocks_pairs(seed: int, options: LearnOptions) -> dict[str, tuple]:
+    """Each row's (rules, held-out data) for one seed (recomputed: it takes about a second)."""
     domain, problem = load(BLOCKS / "domain.ppddl", BLOCKS / "p01.ppddl")
     task = Task(domain, problem)
     test = simulate_traces(task, 100, 20, np.random.default_rng(99), inapplicable=0.25)
     train = simulate_traces(task, 10, 20, np.random.default_rng(seed), inapplicable=0.25)
     rs, _ = learn_rules(examples_from_dataset(train), train.predicates, options, seed=seed, progress=False)
-    return [row("learned rules", seed, rs, test), row("true model", seed, domain_to_rules(domain), test)]
+    return {"learned rules": (rs, test), "true model": (domain_to_rules(domain), test)}
 
 
 def run_cli(*argv: str) -> None:
@@ -75,68 +75,56 @@ def run_cli(*argv: str) -> None:
         raise SystemExit(f"failed: groundsym {' '.join(argv)}")
 
 
-def tower_runs(seed: int, work: Path, evals: int) -> list[dict]:
-    """One run: symbol data, model data, learned model; held-out traces abstracted both ways."""
+def collected(path: Path, traces: int, seed: int) -> Path:
+    if not path.exists():
+        run_cli("collect", "--sim", "tower", "--traces", str(traces), "--length", "10", "--seed", str(seed),
+                "-o", str(path), "--quiet")
+    return path
+
+
+def tower_pairs(seed: int, out: Path, evals: int, model_traces: int) -> dict[str, tuple]:
+    """One run: symbols on 160 random transitions (kept in ``run{seed}``, whatever the model data),
+    rules on ``model_traces`` fresh traces abstracted with them, and with the true relations;
+    each row's (rules, held-out data abstracted the same way)."""
+    base = out / "tower" / f"run{seed}"
+    work = base if model_traces == 9 else out / "tower" / f"run{seed}-m{model_traces}"
+    base.mkdir(parents=True, exist_ok=True)
     work.mkdir(parents=True, exist_ok=True)
-    held = work.parent / "heldout.json"
-    if not held.exists():
-        run_cli("collect", "--sim", "tower", "--traces", "30", "--length", "10", "--seed", "999", "-o", str(held),
-                "--quiet")
-    for name, n, s in (("symbols.json", 16, 100 + seed), ("model-data.json", 9, 200 + seed)):
-        if not (work / name).exists():
-            run_cli("collect", "--sim", "tower", "--traces", str(n), "--length", "10", "--seed", str(s),
-                    "-o", str(work / name), "--quiet")
-    if not (work / "model" / "rules.json").exists():
-        run_cli("learn", str(work / "symbols.json"), "--model-data", str(work / "model-data.json"), "-o",
-                str(work / "model"), "--evals", str(evals), "--restarts", "4", "--workers", "1",
+    held = collected(out / "tower" / "heldout.json", 30, 999)
+    collected(base / "symbols.json", 16, 100 + seed)
+    mdata = collected(work / "model-data.json", model_traces, 200 + seed if model_traces == 9 else 5000 + 100 * seed + model_traces)
+    if not (base / "model" / "rules.json").exists():
+        run_cli("learn", str(base / "symbols.json"), "--model-data", str(base / "model-data.json"), "-o",
+                str(base / "model"), "--evals", str(evals), "--restarts", "4", "--workers", "1",
                 "--seed", str(seed), "--quiet")
-    run_cli("abstract", str(held), "--symbols", str(work / "model"), "-o", str(work / "heldout-symbolic.json"))
-    out = [row("learned symbols", seed, load_model(work / "model").rules,
-               read_symbolic_traces(work / "heldout-symbolic.json"))]
-    model_ds, held_ds = read_traces(work / "model-data.json"), read_traces(held)
-    for name, names in TRUTH_ROWS.items():
-        truth = TruthSymbols(names, {"inhand": 1, "on": 2, "big": 1})
-        learn_symbolic_model(truth.to_symbolic_dataset(model_ds), work / name.replace(" ", "-").replace(",", "-"),
-                             seed=seed, argv=["groundsym", "learn"], progress=False)
-        rs = load_model(work / name.replace(" ", "-").replace(",", "-")).rules
-        out.append(row(name, seed, rs, truth.to_symbolic_dataset(held_ds)))
-    return out
+    symbols = load_model(base / "model").symbols
+    model_ds, held_ds = read_traces(mdata), read_traces(held)
+    rows = {"learned symbols": (symbols, work / "model")}
+    rows.update({name: (TruthSymbols(names, {"inhand": 1, "on": 2, "big": 1}),
+                        work / name.replace(" ", "-").replace(",", "-")) for name, names in TRUTH_ROWS.items()})
+    out_pairs = {}
+    for name, (sym, mdir) in rows.items():
+        if not (mdir / "rules.json").exists():
+            learn_symbolic_model(sym.to_symbolic_dataset(model_ds), mdir, seed=seed, argv=["groundsym", "learn"],
+                                 progress=False)
+        out_pairs[name] = (load_model(mdir).rules, sym.to_symbolic_dataset(held_ds))
+    return out_pairs
 
 
-def pooled(rows: list[dict]) -> Calibration:
-    """All runs' predictions in one set of bins (counts add; means are count-weighted)."""
-    count = np.zeros(BINS)
-    sum_p = np.zeros(BINS)
-    sum_y = np.zeros(BINS)
-    for r in rows:
-        for b in r["reliability"]:
-            count[b["bin"]] += b["count"]
-            sum_p[b["bin"]] += b["count"] * b["mean_p"]
-            sum_y[b["bin"]] += b["count"] * b["observed"]
-    safe = np.maximum(count, 1)
-    n = count.sum()
-    ece = float(np.sum(count / n * np.abs(sum_p / safe - sum_y / safe)))
-    covered = sum(r["covered"] for r in rows)
-    return Calibration(ece, int(n), covered, sum(r["default_covered"] for r in rows),
-                       sum(r["noise_predicted"] * r["covered"] for r in rows) / max(covered, 1),
-                       sum(r["noise_observed"] * r["covered"] for r in rows) / max(covered, 1), float("nan"),
-                       tuple(int(c) for c in count), tuple(map(float, sum_p / safe)), tuple(map(float, sum_y / safe)))
-
-
-def summarise(rows: list[dict], setting: str, out: Path) -> None:
-    print(f"| {setting}: row | runs | ECE mean +- se | its floor (mean) | pooled ECE | noise predicted / unexplained | "
-          f"default-covered share | held-out log-lik |")
+def summarise(pairs: dict[str, list], rows: list[dict], setting: str, out: Path) -> None:
+    print(f"| {setting}: row | runs | ECE mean +- se | its floor (mean) | pooled ECE (floor) | "
+          f"noise predicted / unexplained | default-covered share | held-out log-lik |")
     print("|---|---|---|---|---|---|---|---|")
-    for name in dict.fromkeys(r["row"] for r in rows):
+    for name, mine_pairs in pairs.items():
         mine = [r for r in rows if r["row"] == name]
         e = np.array([r["ece"] for r in mine])
         se = e.std(ddof=1) / np.sqrt(len(e)) if len(e) > 1 else 0.0
-        cal = pooled(mine)
+        cal = pooled_calibration(mine_pairs)
         share = cal.default_covered / max(cal.covered + cal.default_covered, 1)
         ll = np.mean([r["mean_log_likelihood"] for r in mine])
         floor = np.mean([r["floor"] for r in mine])
-        print(f"| {name} | {len(mine)} | {e.mean():.4f} +- {se:.4f} | {floor:.4f} | {cal.ece:.4f} | {cal.noise_predicted:.3f} / "
-              f"{cal.noise_observed:.3f} | {share:.3f} | {ll:.4f} |")
+        print(f"| {name} | {len(mine)} | {e.mean():.4f} +- {se:.4f} | {floor:.4f} | {cal.ece:.4f} ({cal.floor:.4f}) | "
+              f"{cal.noise_predicted:.3f} / {cal.noise_observed:.3f} | {share:.3f} | {ll:.4f} |")
         write_reliability_png(out / f"reliability-{setting}-{name.replace(' ', '-').replace(',', '-')}.png", cal,
                               f"{setting}: {name}, {len(mine)} runs pooled")
 
@@ -147,25 +135,32 @@ def main() -> int:
     ap.add_argument("--seeds", default="1-13")
     ap.add_argument("--evals", type=int, default=15_000, help="tower: loss evaluations per symbol search")
     ap.add_argument("--learn-opt", default="", help="blocks: rule learner options KEY=VALUE,... (LearnOptions)")
+    ap.add_argument("--model-traces", type=int, default=9, help="tower: traces of 10 primitives for the rules")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    tag = args.setting + (f"-{args.learn_opt}" if args.learn_opt else "")
+    tag = args.setting + (f"-{args.learn_opt}" if args.learn_opt else "") + \
+        (f"-m{args.model_traces}" if args.setting == "tower" and args.model_traces != 9 else "")
     log = args.out / f"runs-{tag}.jsonl"
     done = [json.loads(x) for x in log.read_text().splitlines()] if log.exists() else []
     seen = {r["seed"] for r in done}
     opts = LearnOptions(**{k: type(getattr(LearnOptions(), k))(v) for k, v in
                            (kv.split("=") for kv in args.learn_opt.split(",") if kv)})
+    pairs: dict[str, list] = {}
     for s in seed_list(args.seeds):
+        got = blocks_pairs(s, opts) if args.setting == "blocks" else \
+            tower_pairs(s, args.out, args.evals, args.model_traces)
+        for name, pair in got.items():
+            pairs.setdefault(name, []).append(pair)
         if s in seen:
             continue
-        rows = blocks_runs(s, opts) if args.setting == "blocks" else \
-            tower_runs(s, args.out / "tower" / f"run{s}", args.evals)
+        rows = [row(name, s, rs, test) for name, (rs, test) in got.items()]
         with log.open("a") as f:
             f.writelines(json.dumps(r) + "\n" for r in rows)
         done.extend(rows)
-        print(f"seed {s}: " + ", ".join(f"{r['row']} ECE {r['ece']:.4f}" for r in rows), file=sys.stderr, flush=True)
-    summarise([r for r in done if r["seed"] in set(seed_list(args.seeds))], tag, args.out)
+        print(f"seed {s}: " + ", ".join(f"{r['row']} ECE {r['ece']:.4f} (floor {r['floor']:.4f})" for r in rows),
+              file=sys.stderr, flush=True)
+    summarise(pairs, [r for r in done if r["seed"] in set(seed_list(args.seeds))], tag, args.out)
     return 0
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -92,24 +92,32 @@ def expected_calibration_error(probs: np.ndarray, happened: np.ndarray, bins: in
 
 def calibration(rs: RuleSet, ds: SymbolicDataset, bins: int = BINS) -> Calibration:
     """Calibration of ``rs``'s outcome probabilities on the transitions of ``ds`` (module docstring)."""
+    return pooled_calibration([(rs, ds)], bins)
+
+
+def pooled_calibration(pairs: Iterable[tuple[RuleSet, SymbolicDataset]], bins: int = BINS) -> Calibration:
+    """Calibration of several models, each on its own held-out data, in one set of bins: errors
+    that differ in sign from model to model (too few training examples) average out here, a bias
+    every model shares (a prior, the noise mass) does not."""
     probs: list[float] = []
     happened: list[bool] = []
     dists: list[tuple[float, ...]] = []
     covered = default = 0
     noise_p = noise_seen = 0.0
-    for tr in ds.traces:
-        for s, a, s2 in tr.transitions():
-            rule, b = rs.covering(s, a, tr.objects)
-            if rule is None:
-                default += 1
-                continue
-            covered += 1
-            hits = [o.apply(s, b) == s2 for o in rule.outcomes]
-            probs.extend(rule.probs)
-            happened.extend(hits)
-            noise_p += rule.noise
-            dists.append(rule.probs)
-            noise_seen += not any(hits)
+    for rs, ds in pairs:
+        for tr in ds.traces:
+            for s, a, s2 in tr.transitions():
+                rule, b = rs.covering(s, a, tr.objects)
+                if rule is None:
+                    default += 1
+                    continue
+                covered += 1
+                hits = [o.apply(s, b) == s2 for o in rule.outcomes]
+                probs.extend(rule.probs)
+                happened.extend(hits)
+                noise_p += rule.noise
+                noise_seen += not any(hits)
+                dists.append(rule.probs)
     ece, count, mean_p, observed = expected_calibration_error(np.array(probs), np.array(happened), bins)
     return Calibration(ece, len(probs), covered, default, noise_p / max(covered, 1), noise_seen / max(covered, 1),
                        resampled_floor(dists, bins), tuple(int(c) for c in count), tuple(float(p) for p in mean_p),
