@@ -82,23 +82,26 @@ def collected(path: Path, traces: int, seed: int) -> Path:
     return path
 
 
-def tower_pairs(seed: int, out: Path, evals: int, model_traces: int) -> dict[str, tuple]:
+def tower_pairs(seed: int, out: Path, evals: int, model_traces: int, all_data: bool = False) -> dict[str, tuple]:
     """One run: symbols on 160 random transitions (kept in ``run{seed}``, whatever the model data),
-    rules on ``model_traces`` fresh traces abstracted with them, and with the true relations;
-    each row's (rules, held-out data abstracted the same way)."""
+    rules on ``model_traces`` fresh traces abstracted with them (``all_data``: and on the symbol
+    data too), and with the true relations; each row's (rules, held-out data abstracted the same way)."""
     base = out / "tower" / f"run{seed}"
-    work = base if model_traces == 9 else out / "tower" / f"run{seed}-m{model_traces}"
+    work = base if model_traces == 9 and not all_data else \
+        out / "tower" / f"run{seed}-m{model_traces}{'-all' if all_data else ''}"
     base.mkdir(parents=True, exist_ok=True)
     work.mkdir(parents=True, exist_ok=True)
     held = collected(out / "tower" / "heldout.json", 30, 999)
     collected(base / "symbols.json", 16, 100 + seed)
-    mdata = collected(work / "model-data.json", model_traces, 200 + seed if model_traces == 9 else 5000 + 100 * seed + model_traces)
+    mdata = collected((base if model_traces == 9 else work) / "model-data.json", model_traces, 200 + seed if model_traces == 9 else 5000 + 100 * seed + model_traces)
     if not (base / "model" / "rules.json").exists():
         run_cli("learn", str(base / "symbols.json"), "--model-data", str(base / "model-data.json"), "-o",
                 str(base / "model"), "--evals", str(evals), "--restarts", "4", "--workers", "1",
                 "--seed", str(seed), "--quiet")
     symbols = load_model(base / "model").symbols
     model_ds, held_ds = read_traces(mdata), read_traces(held)
+    if all_data:
+        model_ds.traces[:0] = read_traces(base / "symbols.json").traces
     rows = {"learned symbols": (symbols, work / "model")}
     rows.update({name: (TruthSymbols(names, {"inhand": 1, "on": 2, "big": 1}),
                         work / name.replace(" ", "-").replace(",", "-")) for name, names in TRUTH_ROWS.items()})
@@ -136,11 +139,14 @@ def main() -> int:
     ap.add_argument("--evals", type=int, default=15_000, help="tower: loss evaluations per symbol search")
     ap.add_argument("--learn-opt", default="", help="blocks: rule learner options KEY=VALUE,... (LearnOptions)")
     ap.add_argument("--model-traces", type=int, default=9, help="tower: traces of 10 primitives for the rules")
+    ap.add_argument("--rules-on-all", action="store_true",
+                    help="tower: learn the rules on the symbol data and the model traces together")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     tag = args.setting + (f"-{args.learn_opt}" if args.learn_opt else "") + \
-        (f"-m{args.model_traces}" if args.setting == "tower" and args.model_traces != 9 else "")
+        (f"-m{args.model_traces}" if args.setting == "tower" and args.model_traces != 9 else "") + \
+        ("-all" if args.setting == "tower" and args.rules_on_all else "")
     log = args.out / f"runs-{tag}.jsonl"
     done = [json.loads(x) for x in log.read_text().splitlines()] if log.exists() else []
     seen = {r["seed"] for r in done}
@@ -149,7 +155,7 @@ def main() -> int:
     pairs: dict[str, list] = {}
     for s in seed_list(args.seeds):
         got = blocks_pairs(s, opts) if args.setting == "blocks" else \
-            tower_pairs(s, args.out, args.evals, args.model_traces)
+            tower_pairs(s, args.out, args.evals, args.model_traces, args.rules_on_all)
         for name, pair in got.items():
             pairs.setdefault(name, []).append(pair)
         if s in seen:
