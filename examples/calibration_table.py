@@ -82,7 +82,8 @@ def collected(path: Path, traces: int, seed: int) -> Path:
     return path
 
 
-def tower_pairs(seed: int, out: Path, evals: int, model_traces: int, all_data: bool = False) -> dict[str, tuple]:
+def tower_pairs(seed: int, out: Path, evals: int, model_traces: int, all_data: bool = False,
+                options: LearnOptions | None = None) -> dict[str, tuple]:
     """One run: symbols on 160 random transitions (kept in ``run{seed}``, whatever the model data),
     rules on ``model_traces`` fresh traces abstracted with them (``all_data``: and on the symbol
     data too), and with the true relations; each row's (rules, held-out data abstracted the same way)."""
@@ -107,6 +108,11 @@ def tower_pairs(seed: int, out: Path, evals: int, model_traces: int, all_data: b
                         work / name.replace(" ", "-").replace(",", "-")) for name, names in TRUTH_ROWS.items()})
     out_pairs = {}
     for name, (sym, mdir) in rows.items():
+        if options is not None:       # another learner configuration: rules in memory, no model directory
+            sds = sym.to_symbolic_dataset(model_ds)
+            rs, _ = learn_rules(examples_from_dataset(sds), sds.predicates, options, seed=seed, progress=False)
+            out_pairs[name] = (rs, sym.to_symbolic_dataset(held_ds))
+            continue
         if not (mdir / "rules.json").exists():
             learn_symbolic_model(sym.to_symbolic_dataset(model_ds), mdir, seed=seed, argv=["groundsym", "learn"],
                                  progress=False)
@@ -137,7 +143,7 @@ def main() -> int:
     ap.add_argument("--setting", choices=("blocks", "tower"), required=True)
     ap.add_argument("--seeds", default="1-13")
     ap.add_argument("--evals", type=int, default=15_000, help="tower: loss evaluations per symbol search")
-    ap.add_argument("--learn-opt", default="", help="blocks: rule learner options KEY=VALUE,... (LearnOptions)")
+    ap.add_argument("--learn-opt", default="", help="rule learner options KEY=VALUE,... (LearnOptions fields)")
     ap.add_argument("--model-traces", type=int, default=9, help="tower: traces of 10 primitives for the rules")
     ap.add_argument("--rules-on-all", action="store_true",
                     help="tower: learn the rules on the symbol data and the model traces together")
@@ -155,7 +161,8 @@ def main() -> int:
     pairs: dict[str, list] = {}
     for s in seed_list(args.seeds):
         got = blocks_pairs(s, opts) if args.setting == "blocks" else \
-            tower_pairs(s, args.out, args.evals, args.model_traces, args.rules_on_all)
+            tower_pairs(s, args.out, args.evals, args.model_traces, args.rules_on_all,
+                        opts if args.learn_opt else None)
         for name, pair in got.items():
             pairs.setdefault(name, []).append(pair)
         if s in seen:
