@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.cli import main as cli  # noqa: E402
 from groundsym.evaluation.truth import TruthSymbols  # noqa: E402
@@ -40,18 +41,11 @@ from groundsym.rules.calibration import calibration, pooled_calibration, write_r
 from groundsym.rules.evaluate import score_ruleset  # noqa: E402
 from groundsym.rules.learner import examples_from_dataset, learn_rules, LearnOptions  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
+from tower_prada_diagnosis import seed_range  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BLOCKS = ROOT / "domains" / "reference" / "blocksworld"
 TRUTH_ROWS = {"truth inhand,on": ("inhand", "on"), "truth inhand,on,big": ("inhand", "on", "big")}
-
-
-def seed_list(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out.extend(range(int(lo), int(hi or lo) + 1))
-    return out
 
 
 def row(name: str, seed: int, rs, test) -> dict:
@@ -159,7 +153,7 @@ def main() -> int:
     opts = LearnOptions(**{k: type(getattr(LearnOptions(), k))(v) for k, v in
                            (kv.split("=") for kv in args.learn_opt.split(",") if kv)})
     pairs: dict[str, list] = {}
-    for s in seed_list(args.seeds):
+    for s in seed_range(args.seeds):
         got = blocks_pairs(s, opts) if args.setting == "blocks" else \
             tower_pairs(s, args.out, args.evals, args.model_traces, args.rules_on_all,
                         opts if args.learn_opt else None)
@@ -173,7 +167,7 @@ def main() -> int:
         done.extend(rows)
         print(f"seed {s}: " + ", ".join(f"{r['row']} ECE {r['ece']:.4f} (floor {r['floor']:.4f})" for r in rows),
               file=sys.stderr, flush=True)
-    summarise(pairs, [r for r in done if r["seed"] in set(seed_list(args.seeds))], tag, args.out)
+    summarise(pairs, [r for r in done if r["seed"] in set(seed_range(args.seeds))], tag, args.out)
     return 0
 
 

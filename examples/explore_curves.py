@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.collect import collect_traces  # noqa: E402
 from groundsym.episode import SimEnv, run_episode  # noqa: E402
@@ -41,17 +42,10 @@ from groundsym.registry import make_sim  # noqa: E402
 from groundsym.rules.evaluate import score_ruleset  # noqa: E402
 from groundsym.traces import read_traces, write_traces  # noqa: E402
 from sims.tower import optimal_episode_value  # noqa: E402
+from tower_prada_diagnosis import seed_range  # noqa: E402
 
 LENGTH = 10
 MODES = ("random", "directed")
-
-
-def seed_list(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out.extend(range(int(lo), int(hi or lo) + 1))
-    return out
 
 
 def learn_seed(seed: int, j: int) -> int:
@@ -159,7 +153,7 @@ def main() -> int:
     log = args.out / "curves.jsonl"
     rows = [json.loads(x) for x in log.read_text().splitlines()] if log.exists() else []
     done = {(r["seed"], r["mode"], r["round"]) for r in rows}
-    for seed in seed_list(args.seeds):
+    for seed in seed_range(args.seeds):
         d = args.out / f"seed{seed}"
         d.mkdir(exist_ok=True)
         for mode in MODES:
