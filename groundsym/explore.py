@@ -15,12 +15,15 @@ is usually one primitive away):
 * after every round, symbols and NID rules are learned on all traces so far (as ``groundsym learn``
   would, with ``evals`` loss evaluations) and kept as a model directory ``round-R`` in the work
   folder, beside the round's traces (``round-R.json``);
-* in the next round, each step abstracts the scene with that model's symbols and runs a primitive
-  whose experience count is smallest (ties drawn uniformly): the count of a primitive is the number
-  of transitions, in all data so far and in this round's steps before it, covered by the same rule;
-  a primitive no rule covers is counted by its *local signature* (the action's name and the atoms
-  about its arguments, other objects anonymous), so unknown situations are explored once each
-  before the same one is tried again.
+* in the next round, each step abstracts the scene with that model's symbols and counts each
+  runnable primitive's experience: the transitions, in all data so far and in this round's steps
+  before it, covered by the same rule; a primitive no rule covers is counted by its *local
+  signature* (the action's name and the atoms about its arguments, other objects anonymous). As in
+  E^3 / R-max, a pair is *known* once its count reaches ``known``: the step runs an unknown
+  primitive of smallest count (ties drawn uniformly), or, when every primitive is known, a
+  uniformly random one. Without the threshold (a first version) the least-known primitive was
+  almost always one no rule covers, a release with an empty hand, say, and traces spent their
+  steps on such no-ops, one signature after another.
 
 Every random choice derives from ``seed`` (``collect.trace_seeds``: trace ``i`` keeps its reset
 seed and action Generator whatever the mode), learning from ``SeedSequence(seed, round)``, so the
@@ -67,11 +70,12 @@ class ExploreConfig:
     unary: int = 1
     binary: int = 1
     mode: str = "counts"
+    known: int = 3
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise UserError(f"--explore: {self.mode}: unknown mode (known: {', '.join(MODES)})")
-        if self.rounds < 1 or self.round_traces < 1 or self.length < 1:
+        if self.rounds < 1 or self.round_traces < 1 or self.length < 1 or self.known < 1:
             raise UserError("--rounds: need at least one round of at least one trace of one primitive")
         try:
             self.anneal_config()
@@ -118,23 +122,24 @@ def experience_counts(rules: RuleSet, symbols: SymbolSet, ds: Dataset) -> dict:
 
 
 def least_known(model: RoundModel, state: frozenset, actions: list[Atom], objects: tuple[str, ...],
-                rng: np.random.Generator) -> tuple[Atom, Hashable]:
-    """A primitive of smallest experience count (ties uniformly at random) and its key."""
+                rng: np.random.Generator, known: int = 3) -> tuple[Atom, Hashable]:
+    """An unknown primitive (count below ``known``) of smallest count, ties uniformly at random;
+    when all are known, any primitive uniformly at random. Also its key."""
     keys = [experience_key(model.rules, state, a, objects) for a in actions]
     counts = np.array([model.counts.get(k, 0) for k in keys])
-    ties = np.flatnonzero(counts == counts.min())
+    ties = np.flatnonzero(counts == counts.min()) if counts.min() < known else np.arange(len(actions))
     pick = int(ties[int(rng.integers(len(ties)))])
     return actions[pick], keys[pick]
 
 
 def explore_trace(sim: Sim, model: RoundModel, length: int, reset_seed: int, rng: np.random.Generator,
-                  on_step=None) -> Trace:
+                  on_step=None, known: int = 3) -> Trace:
     """One trace from ``reset_seed``: each step the least-known primitive; counts grow as it goes."""
     scenes = [sim.reset(reset_seed)]
     actions = []
     for _ in range(length):
         state = model.symbols.abstract_scene(scenes[-1])
-        action, key = least_known(model, state, sim.actions(), tuple(scenes[-1].objects), rng)
+        action, key = least_known(model, state, sim.actions(), tuple(scenes[-1].objects), rng, known)
         model.counts[key] = model.counts.get(key, 0) + 1
         actions.append(action)
         scenes.append(sim.step(action))
@@ -192,7 +197,7 @@ def explore_traces(sim: Sim, cfg: ExploreConfig, seed: int, work: Path, progress
             bar.update(len(traces) * cfg.length, f"round {r + 1}/{cfg.rounds} (kept)")
         else:
             mine = seeds[r * cfg.round_traces:(r + 1) * cfg.round_traces]
-            got = [run_trace(sim, model, cfg.length, s, rng, lambda: bar.update(bar.done + 1, f"round {r + 1}"))
+            got = [run_trace(sim, model, cfg, s, rng, lambda: bar.update(bar.done + 1, f"round {r + 1}"))
                    for s, rng in mine]
             write_traces(path, dataset(sim, got, {"round": r}))
             traces.extend(got)
@@ -211,11 +216,11 @@ def explore_traces(sim: Sim, cfg: ExploreConfig, seed: int, work: Path, progress
     return dataset(sim, traces, info)
 
 
-def run_trace(sim: Sim, model: RoundModel | None, length: int, reset_seed: int, rng: np.random.Generator,
+def run_trace(sim: Sim, model: RoundModel | None, cfg: ExploreConfig, reset_seed: int, rng: np.random.Generator,
               on_step) -> Trace:
     if model is None:
-        return collect_trace(sim, length, reset_seed, rng, on_step)
-    return explore_trace(sim, model, length, reset_seed, rng, on_step)
+        return collect_trace(sim, cfg.length, reset_seed, rng, on_step)
+    return explore_trace(sim, model, cfg.length, reset_seed, rng, on_step, cfg.known)
 
 
 def dataset(sim: Sim, traces: list[Trace], meta: dict[str, Any]) -> Dataset:

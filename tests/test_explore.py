@@ -42,10 +42,15 @@ def test_the_least_known_primitive_is_chosen_and_ties_are_drawn():
     assert unknown == ("none", "grab", 1, (("on", ("#0", "*")),)) and unknown[1:] == local_signature(state, actions[2])
     model = RoundModel(SymbolSet((), ("x",)), rules, {known: 5})
     rng = np.random.default_rng(0)
-    assert {least_known(model, state, actions, ("a", "b", "c"), rng)[0] for _ in range(20)} == {actions[2]}
-    model.counts[unknown] = 9                     # now a and b share the smallest count: both get drawn
-    picks = [least_known(model, state, actions, ("a", "b", "c"), rng)[0] for _ in range(200)]
+    assert {least_known(model, state, actions, ("a", "b", "c"), rng, 3)[0] for _ in range(20)} == {actions[2]}
+    model.counts[unknown] = 2                     # still unknown (below 3): still the only choice
+    assert {least_known(model, state, actions, ("a", "b", "c"), rng, 3)[0] for _ in range(20)} == {actions[2]}
+    model.counts[known] = 1                       # now a and b have the smallest count: both get drawn
+    picks = [least_known(model, state, actions, ("a", "b", "c"), rng, 3)[0] for _ in range(200)]
     assert set(picks) == {actions[0], actions[1]} and 60 < picks.count(actions[0]) < 140
+    model.counts[known], model.counts[unknown] = 3, 7       # all known: uniformly at random
+    picks = [least_known(model, state, actions, ("a", "b", "c"), rng, 3)[0] for _ in range(300)]
+    assert all(60 < picks.count(a) < 140 for a in actions)
 
 
 @pytest.fixture(scope="module")
