@@ -111,8 +111,8 @@ def _print(doc: dict) -> None:
     print(f"  {doc['default_covered']} transitions covered by default rules")
     cal = doc.get("calibration")
     if cal is not None:
-        print(f"  expected calibration error {cal['ece']:.4f} ({cal['predictions']} outcome predictions, "
-              f"{cal['bins']} bins); noise mass {cal['noise_predicted']:.3f} predicted, "
+        print(f"  expected calibration error {cal['ece']:.4f} (a calibrated model: {cal['floor']:.4f}; "
+              f"{cal['predictions']} outcome predictions, {cal['bins']} bins); noise mass {cal['noise_predicted']:.3f} predicted, "
               f"{cal['noise_observed']:.3f} of covered transitions unexplained")
     for r in doc["rules"]:
         ctx = " ".join(r.get("context", []))
