@@ -38,9 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", required=True, help="traces JSON to write (groundsym.traces/1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--explore", choices=MODES, default=None,
-                   help="directed exploration: 'counts' runs the primitive whose covering rule of the model "
-                        "learned so far explained fewest transitions (Lang, Toussaint & Kersting 2012); "
-                        "needs --rounds and --work")
+                   help="directed exploration: 'counts' runs a primitive whose covering rule of the model learned "
+                        "so far explained fewest transitions, while fewer than 3 (Lang, Toussaint & Kersting "
+                        "2012); needs --rounds and --work")
     p.add_argument("--rounds", type=Count(2, MAX_TRACES, "rounds"), default=None, metavar="R",
                    help="--explore: the traces come in R rounds (R divides --traces); a model is learned after each")
     p.add_argument("--work", type=Path, default=None, metavar="DIR",
