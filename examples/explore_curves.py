@@ -90,8 +90,9 @@ def score(sim, mdir: Path, held, starts: list[int], best: float) -> dict:
 
 
 def summarise(rows: list[dict], out: Path) -> None:
-    print("| transitions | mode | runs | held-out log-lik (mean +- se) | PRADA share of V* (mean +- se) |")
-    print("|---|---|---|---|---|")
+    print("| transitions | mode | runs | held-out log-lik (mean +- se) | PRADA share of V* (mean +- se) | "
+          "directed - random, same seeds: log-lik, share |")
+    print("|---|---|---|---|---|---|")
     curves: dict = {}
     for n in sorted({r["transitions"] for r in rows}):
         for mode in MODES:
@@ -105,8 +106,19 @@ def summarise(rows: list[dict], out: Path) -> None:
                 stats.append((v.mean() if len(v) else np.nan, se))
                 curves.setdefault((mode, key), []).append((n, *stats[-1]))
             print(f"| {n} | {mode} | {len(mine)} | {stats[0][0]:.4f} +- {stats[0][1]:.4f} | "
-                  f"{stats[1][0]:.1%} +- {stats[1][1]:.1%} |")
+                  f"{stats[1][0]:.1%} +- {stats[1][1]:.1%} | {paired(rows, n) if mode == 'directed' else ''} |")
     atomic_write_bytes(out / "explore-curves.png", curves_png(curves))
+
+
+def paired(rows: list[dict], n: int) -> str:
+    """Mean and standard error of directed minus random over the seeds that have both at ``n``."""
+    by = {(r["seed"], r["mode"]): r for r in rows if r["transitions"] == n}
+    seeds = [s for s, m in by if m == "directed" and (s, "random") in by]
+    out = []
+    for key, fmt in (("heldout_loglik", "{:+.3f} +- {:.3f}"), ("share", "{:+.1%} +- {:.1%}")):
+        d = np.array([by[(s, "directed")][key] - by[(s, "random")][key] for s in seeds], float)
+        out.append(fmt.format(d.mean(), d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else 0.0) if len(d) else "")
+    return ", ".join(out)
 
 
 def curves_png(curves: dict) -> bytes:
@@ -172,7 +184,8 @@ def main() -> int:
                       f"PRADA {row['share'] if row['share'] is not None else float('nan'):.1%}",
                       file=sys.stderr, flush=True)
     sim.close()
-    summarise(rows, args.out)
+    wanted = set(seed_range(args.seeds))
+    summarise([r for r in rows if r["seed"] in wanted], args.out)
     return 0
 
 
