@@ -1,4 +1,4 @@
-"""Calibration of learned outcome probabilities (issue 38): ECE and reliability diagrams.
+"""Calibration of learned outcome probabilities: ECE and reliability diagrams.
 
 Two settings, each scored on held-out transitions with ``groundsym.rules.calibration`` (what
 ``groundsym score`` reports):

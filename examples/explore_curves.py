@@ -1,4 +1,4 @@
-"""Random against directed exploration (issue 38): held-out log-likelihood and PRADA share of V*
+"""Random against directed exploration: held-out log-likelihood and PRADA share of V*
 against total transitions, in the tower cell.
 
 For every seed, ``--rounds`` rounds of ``--round-traces`` traces of 10 primitives:

@@ -240,7 +240,7 @@ class TowerSim:
 
     def _truth(self, pos: np.ndarray, held: set[int]) -> frozenset[Atom]:
         """Ground-truth atoms from the simulator's contacts and poses (evaluation only). Sizes are
-        named three ways (issue 38: what a vocabulary that sees cube size could learn): ``big(X)``
+        named three ways (what a vocabulary that sees cube size could learn and be graded against): ``big(X)``
         and ``small(X)`` for the cell's two cube sizes, and ``bigger(X,Y)``, X's size (cube edge,
         ball or can diameter) larger than Y's."""
         w, ids = self.world, self.objects

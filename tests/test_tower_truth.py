@@ -1,4 +1,4 @@
-"""The tower cell's size relations (issue 38): ``small(X)`` and ``bigger(X,Y)`` beside ``big(X)``,
+"""The tower cell's size relations: ``small(X)`` and ``bigger(X,Y)`` beside ``big(X)``,
 against the sizes the cell was built with, gradable by the grounding F1 code and usable as truth
 symbols."""
 
