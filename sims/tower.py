@@ -134,7 +134,8 @@ class TowerSim:
     CELL_VERSION: ClassVar[int] = 2
     feature_names = POSE_FEATURES                 # an instance's own: see features_for
     primitives = {"closeHandAround": 1, "openHandOver": 1}
-    truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1}
+    truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1,
+                        "small": 1, "bigger": 2}
     episode_length = EPISODE_LENGTH
     gamma = GAMMA
 
@@ -247,7 +248,10 @@ class TowerSim:
         return held
 
     def _truth(self, pos: np.ndarray, held: set[int]) -> frozenset[Atom]:
-        """Ground-truth atoms from the simulator's contacts and poses (evaluation only)."""
+        """Ground-truth atoms from the simulator's contacts and poses (evaluation only). Sizes are
+        named three ways (what a vocabulary that sees cube size could learn and be graded against): ``big(X)``
+        and ``small(X)`` for the cell's two cube sizes, and ``bigger(X,Y)``, X's size (cube edge,
+        ball or can diameter) larger than Y's."""
         w, ids = self.world, self.objects
         atoms: set[Atom] = set()
         on = np.zeros((len(ids), len(ids)), dtype=bool)
@@ -257,6 +261,9 @@ class TowerSim:
                 atoms.add(Atom("ball", (ids[i],)))
             elif size == self.options["big_size"]:
                 atoms.add(Atom("big", (ids[i],)))
+            elif shape == "cube" and size == self.options["small_size"]:
+                atoms.add(Atom("small", (ids[i],)))
+            atoms.update(Atom("bigger", (ids[i], ids[j])) for j, (_, other) in enumerate(self.kinds) if size > other)
             if i in held:
                 atoms.add(Atom("inhand", (ids[i],)))
                 continue
