@@ -52,6 +52,11 @@ class Identifiers:
             self._taken[base] = name
         return self._of[name]
 
+    def name_of(self, identifier: str) -> str | None:
+        """The PPDDL name written as ``identifier`` (None: a name the writer added itself)."""
+        owner = self._taken.get(identifier)
+        return owner if owner is not None and self._of.get(owner) == identifier else None
+
     def reserve(self, name: str, owner: str) -> None:
         """Keep ``name`` for a fluent the writer adds itself (a draw, a derived fluent)."""
         if name in self._taken:

@@ -196,7 +196,7 @@ class RddlWriter:
             args = f"({', '.join(self.types(t.type) for t in p.params)})" if p.params else ""
             note = f"  // {p.comment}" if p.comment else ""
             out.append(f"{INDENT * 2}{self.ids(p.name)}{args} : {{ {kind}, bool, default = false }};{note}")
-        for name, (l, _) in self._goal_marks().items():
+        for name, l in self._goal_marks().items():
             args = ", ".join(self.types(t.type) for t in self.domain.predicate(l.atom.predicate).params)
             out.append(f"{INDENT * 2}{name}({args}) : {{ non-fluent, bool, default = false }};  "
                        f"// the goal asks {'' if l.positive else 'not '}{self.ids(l.atom.predicate)} here")
@@ -264,21 +264,20 @@ class RddlWriter:
                             "literals only")
         return lits  # type: ignore[return-value]
 
-    def _goal_marks(self) -> dict[str, tuple[Literal, int]]:
-        """Goal non-fluent name -> (a literal it marks, arity), for the goal's non-nullary literals."""
-        out = {}
-        for l in self.goal:
-            if l.atom.args:
-                name = f"goal_{'' if l.positive else 'not_'}{self.ids(l.atom.predicate)}"
-                out[name] = (l, l.atom.arity)
-        return out
+    def _mark(self, l: Literal) -> str:
+        """The non-fluent that marks the objects of goal literal ``l`` in the instance."""
+        return f"goal_{'' if l.positive else 'not_'}{self.ids(l.atom.predicate)}"
+
+    def _goal_marks(self) -> dict[str, Literal]:
+        """Goal non-fluent name -> one literal it marks, for the goal's literals with arguments."""
+        return {self._mark(l): l for l in self.goal if l.atom.args}
 
     def _goal_text(self, primed: bool) -> str:
         parts = [self.expr.formula(l.atom if l.positive else Not(l.atom), primed=primed)
                  for l in self.goal if not l.atom.args]
-        for name, (l, n) in self._goal_marks().items():
+        for name, l in self._goal_marks().items():
             pred = self.domain.predicate(l.atom.predicate)
-            head = self.heads[:n]
+            head = self.heads[:l.atom.arity]
             now = self.expr.atom(_atom(l.atom.predicate, head), {}, primed)
             typed = ", ".join(f"{h} : {self.types(t.type)}" for h, t in zip(head, pred.params))
             parts.append(f"(forall_{{{typed}}}[{name}({', '.join(head)}) => {'' if l.positive else '~'}{now}])")
@@ -295,7 +294,7 @@ class RddlWriter:
         if empty:
             raise UserError(f"problem {p.name}: type {empty[0]} has no objects (RDDL needs objects of every type)")
         static = [a for a in p.init if a.predicate not in self.fluents]
-        static += [_atom(name, l.atom.args) for l in self.goal for name, (m, _) in self._goal_marks().items() if m == l]
+        static += [_atom(self._mark(l), l.atom.args) for l in self.goal if l.atom.args]
         fluent = [a for a in p.init if a.predicate in self.fluents]
         lines = [f"// {line}" for line in (p.comment or "").splitlines()]
         lines += [f"non-fluents nf_{name} {{", f"{INDENT}domain = {self.ids(d.name)};", f"{INDENT}objects {{"]
