@@ -65,6 +65,7 @@ class Export:
     objects: tuple[str, ...]
     goal: tuple[Literal, ...]
     goal_note: str
+    reward: Effect | None = None       # the state reward every action carries (RDDL writes it once)
 
 
 def build_export(model: Model, options: ExportOptions = ExportOptions(), where: str | Path | None = None) -> Export:
@@ -102,7 +103,7 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
                       None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
                       comment=f"initial state: {source}\n{goal_note}")
     _check_round_trip(model, domain, problem, dropped)
-    return Export(domain, problem, dropped, objects, tuple(goal), goal_note)
+    return Export(domain, problem, dropped, objects, tuple(goal), goal_note, reward)
 
 
 # ------------------------------------------------------------------------------ predicate comments

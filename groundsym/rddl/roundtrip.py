@@ -22,7 +22,7 @@ import numpy as np
 from ..logic import Atom
 from ..ppddl.ast import Domain, Problem
 from ..ppddl.simulate import Task
-from .writer import RddlWriter
+from .writer import RddlWriter, without_state_reward
 
 REWARD_DECIMALS = 9        # rewards are compared after rounding to this many decimals
 
@@ -109,7 +109,7 @@ def check(domain: Domain, problem: Problem, folder: Path, *, state_reward=None, 
     ``domain``/``problem``: the PPDDL our simulator runs; the RDDL is written from them (with
     ``state_reward`` written once, when the domain's actions all carry it). ``inapplicable``:
     in each state, how many primitives that change nothing are also stepped (they must)."""
-    writer = RddlWriter(_without(domain, state_reward), problem, state_reward)
+    writer = RddlWriter(without_state_reward(domain, state_reward), problem, state_reward)
     stepper = PyRddlStepper(writer, folder, seed)
     task = Task(domain, problem)
     rng = np.random.default_rng(seed)
@@ -146,21 +146,6 @@ def check(domain: Domain, problem: Problem, folder: Path, *, state_reward=None, 
                 failures.append(f"{prim} in {_show(s)}: outcome share {got[key] / samples:.3f}, ours {p:.4f}")
     return RoundTrip(len({s for s, _, _ in plan}), len(plan), len(plan) * samples, m, eps, worst,
                      tuple(failures))
-
-
-def _without(domain: Domain, reward) -> Domain:
-    """``domain`` with the state reward each action carries as its last effect taken off again."""
-    from dataclasses import replace
-    from ..ppddl.ast import AndEffect
-    if reward is None:
-        return domain
-    actions = []
-    for a in domain.actions:
-        if not (isinstance(a.effect, AndEffect) and a.effect.effects and a.effect.effects[-1] == reward):
-            raise ValueError(f"action {a.name} does not carry the state reward as its last effect")
-        rest = a.effect.effects[:-1]
-        actions.append(replace(a, effect=rest[0] if len(rest) == 1 else AndEffect(rest)))
-    return replace(domain, actions=tuple(actions))
 
 
 def _show(state: frozenset) -> str:

@@ -20,7 +20,7 @@ The translation (Sanner 2010 for RDDL; Younes et al. 2005 for the PPDDL semantic
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Iterator, Sequence
 
@@ -315,6 +315,28 @@ class RddlWriter:
     def _ground(self, a: Atom) -> str:
         name = a.predicate if a.predicate in self._goal_marks() else self.ids(a.predicate)
         return f"{name}({', '.join(self.ids(x) for x in a.args)})" if a.args else name
+
+
+def without_state_reward(domain: Domain, reward: Effect | None) -> Domain:
+    """``domain`` with the state reward every action carries as its last effect
+    (:func:`groundsym.export.with_reward`) taken off again, to be written once."""
+    if reward is None:
+        return domain
+    actions = []
+    for a in domain.actions:
+        if not (isinstance(a.effect, AndEffect) and a.effect.effects and a.effect.effects[-1] == reward):
+            raise ValueError(f"action {a.name} does not carry the state reward as its last effect")
+        rest = a.effect.effects[:-1]
+        actions.append(replace(a, effect=rest[0] if len(rest) == 1 else AndEffect(rest)))
+    return replace(domain, actions=tuple(actions))
+
+
+def rddl_files(domain: Domain, problem: Problem, state_reward: Effect | None = None,
+               options: RddlOptions = RddlOptions()) -> dict[str, str]:
+    """``domain.rddl`` and ``instance.rddl`` of a PPDDL domain and problem (``state_reward``: the
+    reward every action of ``domain`` carries, written once)."""
+    w = RddlWriter(without_state_reward(domain, state_reward), problem, state_reward, options)
+    return {"domain.rddl": w.domain_text(), "instance.rddl": w.instance_text()}
 
 
 @dataclass(frozen=True)
