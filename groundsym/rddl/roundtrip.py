@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..logic import Atom
-from ..ppddl.ast import Domain, Problem
+from ..ppddl.ast import Domain, Effect, Problem
 from ..ppddl.simulate import Task
 from .writer import RddlWriter, without_state_reward
 
@@ -103,13 +103,16 @@ def reachable(task: Task, limit: int) -> list[frozenset]:
     return seen
 
 
-def check(domain: Domain, problem: Problem, folder: Path, *, state_reward=None, max_states: int = 20,
-          samples: int = 200, delta: float = 1e-3, seed: int = 0, inapplicable: int = 2) -> RoundTrip:
+def check(domain: Domain, problem: Problem, folder: Path, *, state_reward: Effect | None = None,
+          max_states: int = 20, samples: int = 200, delta: float = 1e-3, seed: int = 0, inapplicable: int = 2,
+          written: Domain | None = None) -> RoundTrip:
     """Compare pyRDDLGym's successor distributions and rewards with ours (module docstring).
     ``domain``/``problem``: the PPDDL our simulator runs; the RDDL is written from them (with
     ``state_reward`` written once, when the domain's actions all carry it). ``inapplicable``:
-    in each state, how many primitives that change nothing are also stepped (they must)."""
-    writer = RddlWriter(without_state_reward(domain, state_reward), problem, state_reward)
+    in each state, how many primitives that change nothing are also stepped (they must).
+    ``written``: the domain the RDDL is written from (default ``domain``; a test gives a wrong
+    one to see the check fail)."""
+    writer = RddlWriter(without_state_reward(written or domain, state_reward), problem, state_reward)
     stepper = PyRddlStepper(writer, folder, seed)
     task = Task(domain, problem)
     rng = np.random.default_rng(seed)
