@@ -252,16 +252,35 @@ REWARD_DROP = 1e-3          # terms smaller than this share of the largest are l
 
 @dataclass(frozen=True)
 class RewardTerms:
-    """The reward model as exported: rounded, with the negligible terms left out."""
+    """The reward model as exported: rounded, with the negligible terms left out; ``constant``:
+    the one reward of every training state, when they are all equal (then nothing is exported)."""
 
     intercept: Fraction
     terms: tuple[tuple[Feature, Fraction], ...]
     dropped: int
+    constant: float | None = None
+
+
+def constant_training_reward(model: Model) -> float | None:
+    """The reward every state of the training data has, when they are all equal (a domain
+    without rewards); None when they differ or the model has no symbolic traces."""
+    sds = model.symbolic_traces
+    rewards = [] if sds is None else [r for tr in sds.traces for r in
+                                      [*tr.rewards, *([tr.final_reward] if tr.final_reward is not None else [])]]
+    if not rewards or max(rewards) - min(rewards) > 1e-12 * max(1.0, abs(max(rewards))):
+        return None
+    return rewards[0]
 
 
 def reward_terms(model: Model) -> RewardTerms:
-    """The model's reward as the export states it (:data:`REWARD_DIGITS`, :data:`REWARD_DROP`)."""
+    """The model's reward as the export states it (:data:`REWARD_DIGITS`, :data:`REWARD_DROP`);
+    nothing where the training rewards are all equal: a fit to one value has only terms of
+    rounding noise (REWARD_DROP is relative to the largest term, so all-tiny terms would survive)."""
     rm = model.reward
+    constant = constant_training_reward(model)
+    if constant is not None:
+        nonzero = sum(1 for x in (rm.intercept, *rm.weights) if x != 0)
+        return RewardTerms(Fraction(0), (), nonzero, constant)
     big = max([abs(rm.intercept), *(abs(w) for w in rm.weights)], default=0.0)
 
     def kept(x: float) -> bool:
@@ -296,8 +315,11 @@ _GROUPS = {1: "object", 2: "pair", 3: "triple"}
 def reward_words(model: Model) -> list[str]:
     """The reward model once, in words, for the domain's header comment."""
     rt = reward_terms(model)
-    if rt.intercept == 0 and not rt.terms:
+    if rt.intercept == 0 and not rt.terms and not rt.dropped:
         return ["reward: none (the model has no reward terms)"]
+    if rt.constant is not None:
+        return [f"reward: none (every training state has reward {rt.constant:g}, so no reward tells states apart; "
+                f"the model's {rt.dropped} fitted term(s) left out)"]
     lines = ["reward of a step, read in the state the action is taken in (every action carries it as "
              "reward effects):", f"  r = {number(rt.intercept)}"]
     for f, w in rt.terms:
