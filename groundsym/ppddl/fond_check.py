@@ -28,6 +28,14 @@ def _combine(parts: list[Outcomes]) -> Outcomes:
     return frozenset(frozenset().union(*combo) for combo in product(*parts)) if parts else frozenset({frozenset()})
 
 
+def _junction(kind: str, parts) -> tuple:
+    """An ``and``/``or`` with nested ones of the same kind flattened (a reader may flatten them)."""
+    flat: set = set()
+    for p in parts:
+        flat |= p[1] if p[0] == kind else {p}
+    return next(iter(flat)) if len(flat) == 1 else (kind, frozenset(flat))
+
+
 # ------------------------------------------------------------------------------ our side
 def our_formula(f: Formula) -> tuple:
     if isinstance(f, Atom):
@@ -35,8 +43,7 @@ def our_formula(f: Formula) -> tuple:
     if isinstance(f, Not):
         return ("not", our_formula(f.arg))
     if isinstance(f, (And, Or)):
-        parts = frozenset(map(our_formula, f.args))
-        return next(iter(parts)) if len(parts) == 1 else ("and" if isinstance(f, And) else "or", parts)
+        return _junction("and" if isinstance(f, And) else "or", map(our_formula, f.args))
     if isinstance(f, Imply):
         return ("imply", our_formula(f.left), our_formula(f.right))
     if isinstance(f, (Forall, Exists)):
@@ -77,8 +84,7 @@ def their_formula(f) -> tuple:
     if kind == "Not":
         return ("not", their_formula(f.argument))
     if kind in ("And", "Or"):
-        parts = frozenset(map(their_formula, f.operands))
-        return next(iter(parts)) if len(parts) == 1 else (kind.lower(), parts)
+        return _junction(kind.lower(), map(their_formula, f.operands))
     if kind == "Imply":
         return ("imply", their_formula(f.operands[0]), their_formula(f.operands[1]))
     if kind in ("ForallCondition", "ExistsCondition"):
