@@ -12,10 +12,13 @@ not in :mod:`groundsym.export`: that module is the PPDDL export and its round tr
 
 from __future__ import annotations
 
+from typing import Sequence
+
 from .errors import UserError
 from .export import Export
 from .ppddl.fond import fond_domain_text, fond_problem_text
 from .rddl.writer import RddlOptions, rddl_files
+from .rules.model import Derived
 
 FORMATS = ("ppddl", "rddl", "fond")
 RDDL_FILES = ("domain.rddl", "instance.rddl")
@@ -34,11 +37,12 @@ def check_format(fmt: str, determinize: str | None, horizon: int | None) -> None
         raise UserError(f"--horizon: expected a positive number of steps, got {horizon}")
 
 
-def format_files(ex: Export, fmt: str, horizon: int | None = None) -> dict[str, str]:
-    """File name -> text of ``ex`` in ``fmt`` (FOND: no problem.pddl without a goal to reach)."""
+def format_files(ex: Export, fmt: str, horizon: int | None = None, derived: Sequence[Derived] = ()) -> dict[str, str]:
+    """File name -> text of ``ex`` in ``fmt`` (FOND: no problem.pddl without a goal to reach;
+    ``derived``: the rule set's derived predicates, RDDL declares them once)."""
     if fmt == "rddl":
         options = RddlOptions() if horizon is None else RddlOptions(horizon=horizon)
-        return rddl_files(ex.domain, ex.problem, ex.reward, options)
+        return rddl_files(ex.domain, ex.problem, ex.reward, options, derived)
     if fmt == "fond":
         files = {"domain.pddl": fond_domain_text(ex.domain)}
         if ex.problem.goal is not None:

@@ -96,7 +96,7 @@ def _export(model: Model, args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
-    files = format_files(ex, args.format, args.horizon)
+    files = format_files(ex, args.format, args.horizon, model.rules.derived)
     plain_note = ""
     if args.determinize:
         plain_d, plain_p = plain_export(domain, problem, args.determinize, args.strips,

@@ -16,12 +16,14 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
 from ..logic import Atom
 from ..ppddl.ast import Domain, Effect, Problem
 from ..ppddl.simulate import Task
+from ..rules.model import Derived
 from .writer import RddlWriter, without_state_reward
 
 REWARD_DECIMALS = 9        # rewards are compared after rounding to this many decimals
@@ -105,14 +107,15 @@ def reachable(task: Task, limit: int) -> list[frozenset]:
 
 def check(domain: Domain, problem: Problem, folder: Path, *, state_reward: Effect | None = None,
           max_states: int = 20, samples: int = 200, delta: float = 1e-3, seed: int = 0, inapplicable: int = 2,
-          written: Domain | None = None) -> RoundTrip:
+          written: Domain | None = None, derived: Sequence[Derived] = ()) -> RoundTrip:
     """Compare pyRDDLGym's successor distributions and rewards with ours (module docstring).
     ``domain``/``problem``: the PPDDL our simulator runs; the RDDL is written from them (with
     ``state_reward`` written once, when the domain's actions all carry it). ``inapplicable``:
     in each state, how many primitives that change nothing are also stepped (they must).
     ``written``: the domain the RDDL is written from (default ``domain``; a test gives a wrong
-    one to see the check fail)."""
-    writer = RddlWriter(without_state_reward(written or domain, state_reward), problem, state_reward)
+    one to see the check fail). ``derived``: a rule set's derived predicates (derived fluents)."""
+    writer = RddlWriter(without_state_reward(written or domain, state_reward), problem, state_reward,
+                        derived=derived)
     stepper = PyRddlStepper(writer, folder, seed)
     task = Task(domain, problem)
     rng = np.random.default_rng(seed)

@@ -30,6 +30,8 @@ from ..ppddl.ast import (OBJECT, Action, And, AndEffect, Domain, Effect, ForallE
                          Problem, RewardEffect, Typed, When)
 from ..ppddl.ground import effect_literals
 from ..ppddl.rule_actions import primitive_of
+from ..rules.model import Derived
+from .derived import definition, fold
 from .expressions import OBJECT_TYPE, Condition, Expressions, Pick, real, type_namer
 from .names import Identifiers, variable
 
@@ -60,7 +62,13 @@ class RddlWriter:
     """Translates one domain and problem (the module docstring says how)."""
 
     def __init__(self, domain: Domain, problem: Problem, state_reward: Effect | None = None,
-                 options: RddlOptions = RddlOptions()) -> None:
+                 options: RddlOptions = RddlOptions(), derived: Sequence[Derived] = ()) -> None:
+        if derived:      # written out in the PPDDL, declared once here (.derived)
+            domain = replace(domain, actions=tuple(replace(a, precondition=fold(a.precondition, derived))
+                                                   for a in domain.actions))
+            used = {x for a in domain.actions for x in re.findall(r"\(([^\s()]+)", str(a.precondition))}
+            derived = [d for d in derived if d.name in used]
+        self.derived = tuple(derived)
         self.domain, self.problem, self.options = domain, problem, options
         self.state_reward = state_reward
         self.ids = Identifiers(f"domain {domain.name}")
@@ -200,6 +208,10 @@ class RddlWriter:
             args = ", ".join(self.types(t.type) for t in self.domain.predicate(l.atom.predicate).params)
             out.append(f"{INDENT * 2}{name}({args}) : {{ non-fluent, bool, default = false }};  "
                        f"// the goal asks {'' if l.positive else 'not '}{self.ids(l.atom.predicate)} here")
+        for d in self.derived:
+            args = f"({', '.join([OBJECT_TYPE] * d.arity)})" if d.arity else ""
+            out.append(f"{INDENT * 2}{self.ids(d.name)}{args} : {{ interm-fluent, bool }};  "
+                       f"// a derived predicate: no {d.base} atom with these arguments")
         for name, (n, a) in sorted(self.primitives.items()):
             args = f"({', '.join(self.types(t.type) for t in a.parameters[:n])})" if n else ""
             out.append(f"{INDENT * 2}{self.ids(name)}{args} : {{ action-fluent, bool, default = false }};")
@@ -213,6 +225,10 @@ class RddlWriter:
         for name, params in self.draws.items():
             head = f"{name}({', '.join(variable(p.name) for p in params)})" if params else name
             out.append(f"{INDENT * 2}{head} = Uniform(0.0, 1.0);")
+        for d in self.derived:
+            params, body = definition(d)
+            head = f"({', '.join(variable(p.name) for p in params)})" if params else ""
+            out.append(f"{INDENT * 2}{self.ids(d.name)}{head} = {self.expr.formula(body)};")
         sep = "\n" + INDENT * 3
         for p in self.domain.predicates:
             if p.name not in self.fluents:
@@ -332,10 +348,11 @@ def without_state_reward(domain: Domain, reward: Effect | None) -> Domain:
 
 
 def rddl_files(domain: Domain, problem: Problem, state_reward: Effect | None = None,
-               options: RddlOptions = RddlOptions()) -> dict[str, str]:
+               options: RddlOptions = RddlOptions(), derived: Sequence[Derived] = ()) -> dict[str, str]:
     """``domain.rddl`` and ``instance.rddl`` of a PPDDL domain and problem (``state_reward``: the
-    reward every action of ``domain`` carries, written once)."""
-    w = RddlWriter(without_state_reward(domain, state_reward), problem, state_reward, options)
+    reward every action of ``domain`` carries, written once; ``derived``: the rule set's derived
+    predicates, declared as derived fluents)."""
+    w = RddlWriter(without_state_reward(domain, state_reward), problem, state_reward, options, derived)
     return {"domain.rddl": w.domain_text(), "instance.rddl": w.instance_text()}
 
 
