@@ -26,6 +26,7 @@ from .logic import Atom, Literal, is_variable, parse_literal
 from .modeldir import SYMBOLS, Model
 from .ppddl.ast import (And, AndEffect, Domain, Effect, ForallEffect, Not, Problem, RewardEffect, Typed, When,
                         number)
+from .ppddl.axioms import inline
 from .ppddl.compare import context_key, rules_close
 from .ppddl.determinize import determinize
 from .ppddl.from_rules import RulesWriter
@@ -47,12 +48,14 @@ class ExportOptions:
     """What to export besides the model: the scene of the problem (``FILE:TRACE:STEP``; None: the
     first state of the model's first training trace), its goal (literals as text; None: the
     highest-reward abstract state in the data), the noise mode
-    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`) and the domain's name."""
+    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`), the domain's name, and whether derived
+    predicates are declared once as axioms (:mod:`groundsym.ppddl.axioms`) or written out."""
 
     scene: str | None = None
     goal: str | None = None
     noise: str = "no-change"
     name: str = "learned"
+    axioms: bool = False            # derived predicates as (:derived ...) axioms, declared once
 
 
 @dataclass(frozen=True)
@@ -88,7 +91,8 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
     else:
         goal, goal_note = derived_goal(model, objects)
     reward = reward_effect(model)
-    writer = RulesWriter(model.rules, options.noise, DECIMALS, simple=True, drop_no_change=reward is None)
+    writer = RulesWriter(model.rules, options.noise, DECIMALS, simple=True, drop_no_change=reward is None,
+                         axioms=options.axioms)
     domain, dropped = writer.domain(predicates, options.name, predicate_comments(model), "")
     header = ["learned NID rules as PPDDL (groundsym export-domain): one action per rule",
               f"probabilities rounded to {DECIMALS} decimals; the mass an outcome list leaves unassigned is "
@@ -379,9 +383,9 @@ def plain_export(domain: Domain, problem: Problem, mode: str, strips: bool,
         warn(f"the {mode} determinisation has no actions (no rule changes anything): "
              "a classical planner can do nothing with it")
     if strips:
-        plain_d, plain_p = to_strips(plain_d, plain_p)
+        plain_d, plain_p = to_strips(inline(plain_d), plain_p)
     if plain_p is not None and plain_p.goal is not None and plain_d.actions:
-        if relaxed_reachable(plain_d, plain_p) is False:
+        if relaxed_reachable(inline(plain_d), plain_p) is False:
             warn("the goal cannot be reached from the initial state even with delete effects and negative "
                  "conditions ignored "
                  f"(relaxed reachability over the {mode} determinisation)")

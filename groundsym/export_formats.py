@@ -24,10 +24,16 @@ FORMATS = ("ppddl", "rddl", "fond")
 RDDL_FILES = ("domain.rddl", "instance.rddl")
 
 
-def check_format(fmt: str, determinize: str | None, horizon: int | None) -> None:
+def check_format(fmt: str, determinize: str | None, horizon: int | None, axioms: bool = False,
+                 strips: bool = False) -> None:
     """Refuse, in one line, an option that means nothing in ``fmt`` (before any work starts)."""
     if fmt not in FORMATS:
         raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    if axioms and fmt == "rddl":
+        raise UserError("--axioms: not with --format rddl (RDDL always declares derived predicates once, as "
+                        "interm fluents)")
+    if axioms and strips:
+        raise UserError("--axioms: not with --strips (STRIPS has no axioms; the STRIPS compilation writes them out)")
     if determinize and fmt != "ppddl":
         raise UserError(f"--determinize: only with --format ppddl ({fmt} keeps every outcome; "
                         "determinise the PPDDL export for a classical planner)")

@@ -45,6 +45,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", choices=FORMATS, default="ppddl",
                    help="ppddl (default: domain.ppddl, problem.ppddl), rddl (domain.rddl, instance.rddl, for "
                         "pyRDDLGym and JaxPlan) or fond (domain.pddl, problem.pddl with oneof effects); docs/rddl.md")
+    p.add_argument("--axioms", action="store_true",
+                   help="declare derived predicates once as (:derived ...) axioms instead of writing them out in "
+                        "every precondition (PPDDL and FOND; Fast Downward reads them, docs/rddl.md)")
     p.add_argument("--horizon", type=int, help="with --format rddl: the instance's horizon (default 40)")
     p.add_argument("--determinize", choices=MODES, help="also write plain domain.pddl and problem.pddl")
     p.add_argument("--strips", action="store_true",
@@ -82,14 +85,14 @@ def run(args: argparse.Namespace) -> int:
     check_identifier(args.name, "--name")
     if args.strips and not args.determinize:
         raise UserError("--strips: needs --determinize all-outcomes or most-likely")
-    check_format(args.format, args.determinize, args.horizon)
+    check_format(args.format, args.determinize, args.horizon, args.axioms, args.strips)
     with _renamed(load_model(args.model), args.rename) as model:
         return _export(model, args)
 
 
 def _export(model: Model, args: argparse.Namespace) -> int:
     """Build the export, write its files into ``--output`` and say what was written."""
-    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name)
+    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name, axioms=args.axioms)
     ex = build_export(model, options, args.model)
     domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
                                                           ex.goal_note)
