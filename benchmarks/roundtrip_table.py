@@ -45,15 +45,16 @@ def learned(tmp: Path) -> dict[str, Path]:
 
 def rddl_rows(args: argparse.Namespace, tmp: Path) -> list[str]:
     rows = []
-    cases = [(f"IPPC {d.parent.name[4:]} {d.name} p01", *load(d / "domain.pddl", d / "p01.pddl"), None)
+    cases = [(f"IPPC {d.parent.name[4:]} {d.name} p01", *load(d / "domain.pddl", d / "p01.pddl"), None, ())
              for d in sorted(IPPC.glob("*/*"))]
     for name, path in learned(tmp).items():
-        ex = build_export(load_model(path), ExportOptions())
-        cases.append((name, ex.domain, ex.problem, ex.reward))
-    for name, domain, problem, reward in cases:
+        model = load_model(path)
+        ex = build_export(model, ExportOptions())
+        cases.append((name, ex.domain, ex.problem, ex.reward, model.rules.derived))
+    for name, domain, problem, reward, derived in cases:
         start = time.process_time()
         r = check(domain, problem, tmp / "rddl", state_reward=reward, max_states=args.states, samples=args.samples,
-                  delta=args.delta, seed=args.seed)
+                  delta=args.delta, seed=args.seed, derived=derived)
         rows.append(f"| RDDL -> pyRDDLGym | {name} | {r.states} states, {r.pairs} pairs, {r.outcomes} outcomes, "
                     f"{r.steps} steps | eps {r.eps:.3f}, worst {r.worst:.3f} | {'equal' if r.ok else 'DIFFER'} | "
                     f"{time.process_time() - start:.0f} |")

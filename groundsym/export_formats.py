@@ -12,16 +12,45 @@ not in :mod:`groundsym.export`: that module is the PPDDL export and its round tr
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Sequence
 
 from .errors import UserError
 from .export import Export
+from .ppddl.ast import Domain
 from .ppddl.fond import fond_domain_text, fond_problem_text
 from .rddl.writer import RddlOptions, rddl_files
 from .rules.model import Derived
 
 FORMATS = ("ppddl", "rddl", "fond")
 RDDL_FILES = ("domain.rddl", "instance.rddl")
+
+
+# the PPDDL header's lines that another format says otherwise (groundsym.export.build_export)
+RDDL_HEADER = {
+    "learned NID rules as PPDDL (groundsym export-domain): one action per rule":
+        "learned NID rules as RDDL (groundsym export-domain --format rddl): one action fluent per primitive; "
+        "its rules stand in the conditional probability functions, one Uniform draw picks a rule's outcome",
+    "a precondition's last (and ...) lists the other rules of the action that must not apply":
+        "a rule applies when its context holds and no other rule of the primitive covers (docs/rddl.md)",
+    "(every action carries it as reward effects):": "(the reward expression below):",
+}
+FOND_HEADER = {
+    "learned NID rules as PPDDL (groundsym export-domain): one action per rule":
+        "learned NID rules as FOND PDDL (groundsym export-domain --format fond): one action per rule, its "
+        "outcomes as oneof",
+    "probabilities rounded to 4 decimals; the mass an outcome list leaves unassigned is":
+        "the probabilities are dropped (FOND has none); the outcome (and), where a rule has noise, is",
+    "reward of a step, read in the state the action is taken in (every action carries it as reward effects):":
+        "reward (left out here, FOND has no rewards), read in the state the action is taken in:",
+}
+
+
+def _header(domain: Domain, lines: dict[str, str]) -> Domain:
+    text = domain.comment.replace("\n", "\0")     # a PPDDL comment line may have been wrapped: match unwrapped
+    for old, new in lines.items():
+        text = text.replace(old, new)
+    return replace(domain, comment=text.replace("\0", "\n"))
 
 
 def check_format(fmt: str, determinize: str | None, horizon: int | None, axioms: bool = False,
@@ -48,9 +77,9 @@ def format_files(ex: Export, fmt: str, horizon: int | None = None, derived: Sequ
     ``derived``: the rule set's derived predicates, RDDL declares them once)."""
     if fmt == "rddl":
         options = RddlOptions() if horizon is None else RddlOptions(horizon=horizon)
-        return rddl_files(ex.domain, ex.problem, ex.reward, options, derived)
+        return rddl_files(_header(ex.domain, RDDL_HEADER), ex.problem, ex.reward, options, derived)
     if fmt == "fond":
-        files = {"domain.pddl": fond_domain_text(ex.domain)}
+        files = {"domain.pddl": fond_domain_text(_header(ex.domain, FOND_HEADER))}
         if ex.problem.goal is not None:
             files["problem.pddl"] = fond_problem_text(ex.problem)
         return files

@@ -20,6 +20,7 @@ The translation (Sanner 2010 for RDDL; Younes et al. 2005 for the PPDDL semantic
 from __future__ import annotations
 
 import re
+import textwrap
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Iterator, Sequence
@@ -179,13 +180,13 @@ class RddlWriter:
     # -------------------------------------------------------------------------- the domain
     def domain_text(self) -> str:
         d = self.domain
-        lines = [f"// {line}" for line in (d.comment or "").splitlines()]
+        lines = _comment(d.comment)
         lines.append(f"domain {self.ids(d.name)} {{")
         type_names = sorted(self._type_names())
         lines += [f"{INDENT}types {{", *(f"{INDENT * 2}{t} : object;" for t in type_names), f"{INDENT}}};", ""]
         lines += [f"{INDENT}pvariables {{", *self._pvariables(), f"{INDENT}}};", ""]
         lines += [f"{INDENT}cpfs {{", *self._cpfs(), f"{INDENT}}};", ""]
-        lines += [f"{INDENT}reward = {self._reward()};"]
+        lines += [f"{INDENT}reward ={self._reward()};"]      # one term a line
         if self.goal:
             lines += ["", f"{INDENT}termination {{", f"{INDENT * 2}{self._goal_text(False)};", f"{INDENT}}};"]
         lines.append("}")
@@ -255,7 +256,10 @@ class RddlWriter:
             parts.append(real(c.amount) if case == "true" else f"{real(c.amount)} * {case}")
         if self.goal:
             parts.append(f"{real(self._goal_reward())} * {self._goal_text(True)}")
-        return " + ".join(parts).replace("+ -", "- ") if parts else "0.0"
+        if not parts:
+            return " 0.0"
+        sep = "\n" + INDENT * 3
+        return sep + "  " + (sep + "+ ").join(parts).replace("+ -", "- ")
 
     def _goal_reward(self) -> Fraction | None:
         p = self.problem
@@ -312,7 +316,7 @@ class RddlWriter:
         static = [a for a in p.init if a.predicate not in self.fluents]
         static += [_atom(self._mark(l), l.atom.args) for l in self.goal if l.atom.args]
         fluent = [a for a in p.init if a.predicate in self.fluents]
-        lines = [f"// {line}" for line in (p.comment or "").splitlines()]
+        lines = _comment(p.comment)
         lines += [f"non-fluents nf_{name} {{", f"{INDENT}domain = {self.ids(d.name)};", f"{INDENT}objects {{"]
         lines += [f"{INDENT * 2}{t} : {{{', '.join(sorted(os))}}};" for t, os in sorted(by_type.items())]
         lines.append(f"{INDENT}}};")
@@ -331,6 +335,16 @@ class RddlWriter:
     def _ground(self, a: Atom) -> str:
         name = a.predicate if a.predicate in self._goal_marks() else self.ids(a.predicate)
         return f"{name}({', '.join(self.ids(x) for x in a.args)})" if a.args else name
+
+
+def _comment(text: str, width: int = 100) -> list[str]:
+    """``//`` comment lines of at most ``width`` characters, indentation kept."""
+    out = []
+    for line in (text or "").splitlines():
+        pad = " " * (len(line) - len(line.lstrip()))
+        out += ["// " + x for x in textwrap.wrap(line.lstrip(), width - 3, initial_indent=pad, subsequent_indent=pad + "  ",
+                                                 break_long_words=False) or [""]]
+    return out
 
 
 def without_state_reward(domain: Domain, reward: Effect | None) -> Domain:
