@@ -216,3 +216,30 @@ def test_constant_training_reward_exports_no_reward(tower_model, tmp_path):
         assert "reward: none (every training state has reward 0" in text and "2 fitted term(s) left out" in text
         assert "increase" not in text and "0.00002" not in text and "2e-05" not in text
     assert "reward = 0.0;" in (tmp_path / "rddl" / "domain.rddl").read_text()
+
+
+def test_convert_writes_the_competition_file_as_rddl_and_fond(tmp_path, capsys):
+    d = IPPC / "ippc2006" / "ex-blocksworld"
+    assert main(["convert", str(d / "domain.pddl"), str(d / "p02.pddl"), "-o", str(tmp_path), "--format", "rddl"]) == 0
+    domain, prob = load(d / "domain.pddl", d / "p02.pddl")
+    writer = RddlWriter(domain, prob)
+    assert (tmp_path / "domain.rddl").read_text() == writer.domain_text()
+    assert (tmp_path / "instance.rddl").read_text() == writer.instance_text()
+    assert main(["convert", str(d / "domain.pddl"), str(d / "p02.pddl"), "-o", str(tmp_path), "--format", "fond"]) == 0
+    assert "oneof" in (tmp_path / "domain.pddl").read_text()
+
+
+@pytest.mark.parametrize("domain, message", [
+    ("(define (domain t) (:types block - thing thing) (:predicates (p ?x - block)) "
+     "(:action a :parameters (?x - block) :effect (p ?x)))", "the RDDL export writes flat types only"),
+    ("(define (domain t) (:predicates (p ?x)) (:action a :parameters (?x) :effect (p ?x)))", None),
+])
+def test_what_rddl_cannot_say_is_refused_in_one_line(domain, message, tmp_path, capsys):
+    (tmp_path / "d.pddl").write_text(domain)
+    goal = "(:goal (or (p a) (p b)))" if message is None else "(:goal (p a))"
+    (tmp_path / "p.pddl").write_text(f"(define (problem p) (:domain t) (:objects a b{' - block' if message else ''}) "
+                                     f"(:init) {goal})")
+    assert main(["convert", str(tmp_path / "d.pddl"), str(tmp_path / "p.pddl"), "-o", str(tmp_path / "o"),
+                 "--format", "rddl"]) == 2
+    err = capsys.readouterr().err
+    assert (message or "the RDDL export writes a conjunction of literals only") in err and "Traceback" not in err
