@@ -21,12 +21,8 @@ from groundsym.logic import parse_atom
 from groundsym.ppddl.parser import load, parse_domain
 from groundsym.ppddl.simulate import Task
 
-from test_export_cli import _model
+from test_export_cli import tower_model  # noqa: F401  (the PPDDL export's learned model)
 
-
-@pytest.fixture(scope="module")
-def tower_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p02.ppddl", 2)
 
 
 def _export(model: Path, out: Path, *extra: str) -> Path:

@@ -19,19 +19,11 @@ pytest.importorskip("pddl", reason="the pddl package is not installed (pip insta
 
 from groundsym.ppddl.fond_check import compare_fond  # noqa: E402
 
-from test_export_cli import _model  # noqa: E402
+from test_export_cli import bw_model, tower_model  # noqa: E402,F401  (the PPDDL export's learned models)
 
 IPPC = Path(__file__).parent / "data" / "ippc"
 
 
-@pytest.fixture(scope="module")
-def bw_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("bw"), "blocksworld/domain.ppddl", "easy", 5)
-
-
-@pytest.fixture(scope="module")
-def tower_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p02.ppddl", 2)
 
 
 @pytest.mark.parametrize("domain", sorted(IPPC.glob("*/*/domain.pddl")), ids=lambda p: f"{p.parent.parent.name}-{p.parent.name}")

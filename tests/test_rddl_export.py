@@ -28,20 +28,12 @@ pytest.importorskip("pyRDDLGym", reason="pyRDDLGym is not installed (pip install
 from groundsym.rddl.roundtrip import PyRddlStepper, check, reachable  # noqa: E402
 from groundsym.rddl.writer import RddlWriter, without_state_reward  # noqa: E402
 
-from test_export_cli import _model  # noqa: E402  (the learned models of the PPDDL export's tests)
+from test_export_cli import bw_model, tower_model  # noqa: E402,F401  (the PPDDL export's learned models)
 
 IPPC = Path(__file__).parent / "data" / "ippc"
 PROBLEMS = sorted(IPPC.glob("*/*/p*.pddl"))
 
 
-@pytest.fixture(scope="module")
-def bw_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("bw"), "blocksworld/domain.ppddl", "easy", 5)
-
-
-@pytest.fixture(scope="module")
-def tower_model(tmp_path_factory) -> Path:
-    return _model(tmp_path_factory.mktemp("tower"), "tower/domain.ppddl", "tower/p02.ppddl", 2)
 
 
 @pytest.mark.parametrize("problem", PROBLEMS, ids=lambda p: f"{p.parent.parent.name}-{p.parent.name}-{p.stem}")
