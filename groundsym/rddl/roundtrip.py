@@ -66,15 +66,7 @@ class PyRddlStepper:
         ids = self.writer.ids
         subs = self.sim.subs
         subs.update({k: np.copy(v) for k, v in self.start.items()})
-        for var in self.model.state_fluents:
-            subs[var] = np.zeros_like(self.start[var])
-        for a in state:
-            if a.predicate in self.writer.fluents:
-                var = ids(a.predicate)
-                if a.args:
-                    subs[var][self.model.object_indices([ids(x) for x in a.args])] = True
-                else:
-                    subs[var] = np.True_
+        subs.update(fluent_arrays(self.model, self.writer, state, self.start))
         name = self.model.ground_var(ids(primitive.predicate), [ids(x) for x in primitive.args])
         obs, reward, _ = self.sim.step(self.sim.prepare_actions_for_sim({name: True}))
         after = set()
@@ -84,6 +76,21 @@ class PyRddlStepper:
                 after.add(Atom(ids.name_of(var), tuple(ids.name_of(o) for o in objects)))
         static = frozenset(a for a in state if a.predicate not in self.writer.fluents)
         return frozenset(after) | static, float(reward)
+
+
+def fluent_arrays(model, writer: RddlWriter, state: frozenset, like: dict) -> dict[str, np.ndarray]:
+    """``state`` as pyRDDLGym's arrays of the state fluents (``like``: arrays of the right shapes,
+    e.g. the simulator's initial ones); ``model``: pyRDDLGym's compiled model of ``writer``'s text."""
+    ids = writer.ids
+    out = {var: np.zeros_like(like[var]) for var in model.state_fluents}
+    for a in state:
+        if a.predicate in writer.fluents:
+            var = ids(a.predicate)
+            if a.args:
+                out[var][model.object_indices([ids(x) for x in a.args])] = True
+            else:
+                out[var] = np.True_
+    return out
 
 
 def reachable(task: Task, limit: int) -> list[frozenset]:
