@@ -69,3 +69,17 @@ def test_no_goal_no_fond_problem(tower_model, tmp_path, capsys):
     assert main(["export-domain", str(tower_model), "-o", str(tmp_path), "--format", "fond"]) == 0
     assert (tmp_path / "domain.pddl").exists() and not (tmp_path / "problem.pddl").exists()
     assert "problem.pddl not written: no goal" in capsys.readouterr().err
+
+
+def test_fond_with_axioms_reads_back_with_identical_outcome_sets(tower_model, tmp_path):
+    """The pddl package reads ``(:derived ...)`` too: with ``--axioms`` the FOND export's outcome
+    sets and preconditions (derived atoms named, not written out) still equal ours."""
+    goal = ["--goal", "(on o1 o2)", "--axioms"]
+    assert main(["export-domain", str(tower_model), "-o", str(tmp_path), "--format", "fond", *goal]) == 0
+    assert main(["export-domain", str(tower_model), "-o", str(tmp_path / "ppddl"), *goal]) == 0
+    text = (tmp_path / "domain.pddl").read_text()
+    assert "(:derived (no-inhand)" in text and "oneof" in text
+    from groundsym.export import ExportOptions, build_export
+    from groundsym.modeldir import load_model
+    ours = build_export(load_model(tower_model), ExportOptions(goal="(on o1 o2)", axioms=True)).domain
+    assert compare_fond(ours, tmp_path / "domain.pddl") == []
