@@ -126,7 +126,7 @@ def check(domain: Domain, problem: Problem, folder: Path, *, state_reward: Effec
     stepper = PyRddlStepper(writer, folder, seed)
     task = Task(domain, problem)
     rng = np.random.default_rng(seed)
-    bonus = float(writer._goal_reward() or 0) if writer.goal else 0.0
+    bonus = float(writer.goal_reward() or 0) if writer.goal else 0.0
     plan: list[tuple[frozenset, Atom, Counter]] = []
     everything = task.primitive_actions()
     for s in (s for s in reachable(task, max_states) if not task.goal_holds(s)):

@@ -255,13 +255,14 @@ class RddlWriter:
             case = self._case(c, None)
             parts.append(real(c.amount) if case == "true" else f"{real(c.amount)} * {case}")
         if self.goal:
-            parts.append(f"{real(self._goal_reward())} * {self._goal_text(True)}")
+            parts.append(f"{real(self.goal_reward())} * {self._goal_text(True)}")
         if not parts:
             return " 0.0"
         sep = "\n" + INDENT * 3
         return sep + "  " + (sep + "+ ").join(parts).replace("+ -", "- ")
 
-    def _goal_reward(self) -> Fraction | None:
+    def goal_reward(self) -> Fraction | None:
+        """What reaching the goal pays (None: no goal, or the rewards say what is good instead)."""
         p = self.problem
         if p.goal is None:
             return None
@@ -273,7 +274,7 @@ class RddlWriter:
     def _goal_literals(self) -> list[Literal]:
         """The goal as literals (empty: no goal, or no goal reward to pay for it). RDDL's domain
         cannot name an instance's objects, so the instance marks them: ``goal_on(a, b)``."""
-        if not self._goal_reward():
+        if not self.goal_reward():
             return []
         g = self.problem.goal
         items = list(g.args) if isinstance(g, And) else [g]
