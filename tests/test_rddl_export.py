@@ -158,9 +158,9 @@ def test_format_options_refuse_meaningless_combinations(bw_model, tmp_path, caps
     for extra, message in ((["--format", "rddl", "--determinize", "all-outcomes"], "--determinize: only with --format ppddl"),
                            (["--format", "fond", "--determinize", "most-likely"], "--determinize: only with --format ppddl"),
                            (["--horizon", "5"], "--horizon: only with --format rddl"),
-                           (["--format", "rddl", "--horizon", "0"], "--horizon: expected a positive"),
+                           (["--format", "rddl", "--horizon", "0"], "argument --horizon: must be at least 1"),
                            (["--format", "rdl"], "invalid choice")):
-        with pytest.raises(SystemExit) if "invalid" in message else _returns(2):
+        with pytest.raises(SystemExit) if message.startswith(("argument", "invalid")) else _returns(2):
             assert main(["export-domain", str(bw_model), "-o", str(tmp_path / "x"), *extra]) == 2
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err and len(err.strip().splitlines()) <= 3

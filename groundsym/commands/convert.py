@@ -12,9 +12,11 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import atomic_write_text
+from ..limits import MAX_STEPS
 from ..ppddl.fond import fond_domain_text, fond_problem_text
 from ..ppddl.parser import load
 from ..rddl.writer import RddlOptions, rddl_files
+from ._common import Count
 
 NAME = "convert"
 HELP = "write a PPDDL domain and problem as RDDL (domain.rddl, instance.rddl) or FOND PDDL"
@@ -27,12 +29,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", required=True, help="directory to write into")
     p.add_argument("--format", choices=("rddl", "fond"), required=True,
                    help="rddl: domain.rddl and instance.rddl; fond: domain.pddl and problem.pddl with oneof")
-    p.add_argument("--horizon", type=int, help="with --format rddl: the instance's horizon (default 40)")
+    p.add_argument("--horizon", type=Count(1, MAX_STEPS, "steps"),
+                   help="with --format rddl: the instance's horizon (default 40)")
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.horizon is not None and (args.format != "rddl" or args.horizon < 1):
-        raise UserError("--horizon: a positive number of steps, with --format rddl only")
+    if args.horizon is not None and args.format != "rddl":
+        raise UserError("--horizon: only with --format rddl (FOND has no horizon)")
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")

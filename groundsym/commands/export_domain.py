@@ -20,10 +20,12 @@ from ..export import ExportOptions, build_export, plain_export
 from ..export_formats import FORMATS, RDDL_FILES, check_format, format_files
 from ..fileio import atomic_write_text
 from ..identifiers import check_identifier
+from ..limits import MAX_STEPS
 from ..modeldir import Model, load_model
 from ..ppddl.determinize import MODES
 from ..ppddl.names import check_renames, parse_renames, write_renamed
 from ..ppddl.rule_actions import NOISE_MODES
+from ._common import Count
 
 NAME = "export-domain"
 HELP = ("write a learned model as PPDDL (domain.ppddl, problem.ppddl), optionally determinised PDDL too; "
@@ -48,7 +50,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--axioms", action="store_true",
                    help="declare derived predicates once as (:derived ...) axioms instead of writing them out in "
                         "every precondition (PPDDL and FOND; Fast Downward reads them, docs/rddl.md)")
-    p.add_argument("--horizon", type=int, help="with --format rddl: the instance's horizon (default 40)")
+    p.add_argument("--horizon", type=Count(1, MAX_STEPS, "steps"),
+                   help="with --format rddl: the instance's horizon (default 40)")
     p.add_argument("--determinize", choices=MODES, help="also write plain domain.pddl and problem.pddl")
     p.add_argument("--strips", action="store_true",
                    help="with --determinize: compile domain.pddl to plain STRIPS (grounded; no negative, "
