@@ -12,6 +12,7 @@ the same decisions on any machine. Needs the extra ``jaxplan`` (pyRDDLGym-jax, j
 from __future__ import annotations
 
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -85,13 +86,15 @@ class JaxPlanPlanner:
         return self._built[objects]
 
     def choose(self, observation: Observation) -> Decision:
+        start = time.process_time()
         state = observation.state if observation.state is not None else frozenset()
         model, controller, writer, like = self._build(observation.objects, state)
         arrays = fluent_arrays(model, writer, state, like)
         chosen = controller.sample_action(arrays)
         action = self._decode(model, writer, chosen)
         legal = list(observation.actions)
-        info: dict[str, Any] = {"jaxplan": str(action) if action is not None else "no action"}
+        info: dict[str, Any] = {"jaxplan": str(action) if action is not None else "no action",
+                                "cpu_seconds": round(time.process_time() - start, 3)}   # compiling included
         if action is None or (legal and action not in legal):    # JaxPlan chose nothing it may run
             action = legal[int(self.rng.integers(len(legal)))]
             info["fallback"] = True
