@@ -1,0 +1,249 @@
+"""Learning rules from successful-only traces: plans and demonstrations, where no action ever fails.
+
+The NID search (:mod:`groundsym.rules.learner`) adds a context literal only where the data show the
+action failing without it; a trace of successful actions shows no failure, so every context there
+stays ``(always)``. Here the context of an action is instead the *most specific* set of literals
+over its arguments that the examples support, as SAM's safe preconditions (Juba, Le & Stern 2021,
+"Safe learning of lifted action models", KR): a literal is kept when it holds in (nearly) every
+example of the action. Under observation noise a true precondition is seen false now and then,
+so literals are kept by *frequency* with a threshold, as NOLAM's model of noisy traces does
+(Lamanna & Serafini 2024, ICAPS); the threshold is chosen on held-out examples (below).
+Effects are the lifted changes seen often enough; the rule's outcomes and their probabilities are
+then induced on the examples as for any NID rule (:func:`induce_outcomes`), so stochastic
+actions keep several outcomes and a noise outcome (docs/rules.md, Successful-only traces).
+
+Choosing the threshold: the examples are split (seeded) into a training and a held-out part. For
+each threshold the literals at or above it are the *precondition group*, modelled as true except
+for one noise rate shared by the whole group (noise is the same for every atom); every other
+literal is modelled by its own frequency. The held-out log-likelihood of the literal observations
+rises while true preconditions (seen true at one common rate) join the group and falls once a
+literal that is merely often true joins. Held-out data cannot tell a true precondition seen at the
+noise rate from a literal that merely happens to hold as often, so among the thresholds within
+``slack`` nats of the best the lowest (the most specific context, the safe side) is taken. On
+noise-free data a literal below 1.0 joins only if it costs nothing held out, so the result is SAM's.
+
+Types: a unary predicate named in ``types`` is an object type (static, from the trace file); a
+literal over it is kept positive only (the operator's parameter type), and a negated literal whose
+atom is badly typed (its predicate never holds for objects of those types in the data) is never
+offered, so ``(not (on ?x ?y))`` appears only where ``on`` can hold at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..logic import Atom, Literal
+from .contexts import atoms_over
+from .coverage import Coverage, Example, ExampleTable
+from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet
+from .outcomes import induce_outcomes
+
+THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
+
+
+@dataclass(frozen=True)
+class SuccessOptions:
+    """Knobs of successful-only learning (docs/rules.md, Successful-only traces). ``threshold``
+    fixes the frequency a context literal needs (None: chosen on held-out examples from
+    ``thresholds``); ``holdout`` is the share of examples held out for that choice; ``slack`` the
+    held-out log-likelihood (nats) a lower (more specific) threshold may lose; ``effect_share`` the share of the
+    examples where a lifted change could show in which it must show to be an effect."""
+
+    threshold: float | None = None
+    thresholds: tuple[float, ...] = THRESHOLDS
+    holdout: float = 0.3
+    slack: float = 1.0
+    effect_share: float = 0.1
+    alpha: float = 0.5
+    p_min: float = P_MIN
+    p_min_default: float = P_MIN_DEFAULT
+    nochange_prior: float = 0.5
+
+
+def has_failures(examples: Sequence[Example]) -> bool:
+    """Does some action leave the state unchanged (a failure, or an action that does nothing)?"""
+    return any(not e.changed for e in examples)
+
+
+@dataclass
+class _ActionData:
+    """One action's examples over its own arguments: the candidate literals, whether each holds
+    (``truth``: examples x literals) and the lifted changes seen."""
+
+    name: str
+    variables: tuple[str, ...]
+    literals: list[Literal]
+    truth: np.ndarray
+    weights: np.ndarray
+    reduced: list[Example] = field(default_factory=list)
+
+
+def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
+                         options: SuccessOptions = SuccessOptions(), *, seed: int = 0
+                         ) -> tuple[RuleSet, LearnReport]:
+    """One rule per action name: the frequency context, its induced outcomes, a default rule."""
+    types = frozenset(types)
+    sig = _signatures(examples, types)
+    groups: dict[tuple[str, int], list[Example]] = {}
+    for e in examples:
+        groups.setdefault((e.action.predicate, e.action.arity), []).append(e)
+    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig, options.effect_share)
+            for name, arity in sorted(groups)]
+    theta, curve = (options.threshold, {}) if options.threshold is not None else \
+        _choose_threshold(data, options, np.random.default_rng(seed))
+    rules, defaults, report = [], [], LearnReport()
+    for d in data:
+        rule, default, stats = _fit_action(d, theta, options)
+        if rule is not None:
+            rules.append(rule)
+        defaults.append((d.name, default))
+        report.per_action[d.name] = {**stats, "threshold": theta, "heldout_loglik": curve}
+    return RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, True, ()), report
+
+
+def _types_of(state: frozenset, types: frozenset) -> dict[str, set[str]]:
+    out: dict[str, set[str]] = {}
+    for a in state:
+        if a.predicate in types and a.arity == 1:
+            out.setdefault(a.args[0], set()).add(a.predicate)
+    return out
+
+
+def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str, int], set[str]]:
+    """For each (predicate, position): the types of the objects seen there (``object`` without
+    types). A negated literal is offered only where its atom is well typed by these."""
+    sig: dict[tuple[str, int], set[str]] = {}
+    for e in examples:
+        for s in (e.state, e.succ):
+            kinds = _types_of(s, types)
+            for a in s:
+                if a.predicate not in types:
+                    for k, o in enumerate(a.args):
+                        sig.setdefault((a.predicate, k), set()).update(kinds.get(o, {"object"}))
+    return sig
+
+
+def _action_data(name: str, arity: int, examples: list[Example], predicates: dict[str, int], types: frozenset,
+                 sig: dict, effect_share: float) -> _ActionData:
+    variables = tuple(f"?x{i + 1}" for i in range(arity))
+    fluents = {p: k for p, k in predicates.items() if p not in types}
+    atoms = atoms_over(variables, fluents, True)
+    kept = [e for e in examples if len(set(e.action.args)) == arity]
+    lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
+        [Literal(a, s) for a in atoms for s in (True, False)]
+    truth = np.zeros((len(kept), len(lits)), dtype=bool)
+    before = np.zeros((len(kept), len(atoms)), dtype=bool)
+    after = np.zeros_like(before)
+    for i, e in enumerate(kept):
+        ground = dict(zip(variables, e.action.args))
+        kinds = _types_of(e.state, types)
+        for j, a in enumerate(atoms):
+            g = a.substitute(ground)
+            before[i, j], after[i, j] = g in e.state, g in e.succ
+        typed = np.array([all(kinds.get(ground[v], {"object"}) & sig.get((a.predicate, k), set())
+                              for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
+        nt = len(types) * arity
+        truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
+                         for l in lits[:nt]]
+        truth[i, nt::2] = before[i]
+        truth[i, nt + 1::2] = ~before[i] & typed
+    w = np.array([e.weight for e in kept], dtype=float)
+    effects = _effects(atoms, before, after, w, effect_share)
+    reduced = [_reduce(e, variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)]
+    return _ActionData(name, variables, lits, truth, w, reduced)
+
+
+def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the atoms whose addition (deletion) shows in at least ``share`` of the examples
+    where it could show (the atom false before; true before): the effects, with changes that noise
+    alone explains left out."""
+    def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
+        den = w @ could
+        return np.where(den > 0, (w @ (could & did)) / np.maximum(den, 1e-300), 0.0)
+    return frac(~before, after) >= share, frac(before, ~after) >= share
+
+
+def _reduce(e: Example, variables: tuple[str, ...], atoms: list[Atom], before: np.ndarray, after: np.ndarray,
+            effects: tuple[np.ndarray, np.ndarray], types: frozenset) -> Example:
+    """The example over the action's arguments alone: its state there, and its successor with only
+    the effect changes applied (changes elsewhere, or that noise explains, are dropped)."""
+    adds, dels = effects
+    ground = dict(zip(variables, e.action.args))
+    args = set(e.action.args)
+    state = frozenset([a.substitute(ground) for a, b in zip(atoms, before) if b]
+                      + [a for a in e.state if a.predicate in types and a.arity == 1 and a.args[0] in args])
+    add = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, adds) if m and c and not b}
+    rm = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, dels) if m and b and not c}
+    return Example(state, e.action, (state - rm) | add, tuple(e.action.args), e.weight)
+
+
+def _context(truth: np.ndarray, w: np.ndarray, theta: float) -> np.ndarray:
+    """Mask of the literals that hold in at least ``theta`` of the examples (by weight)."""
+    if w.sum() <= 0:
+        return np.zeros(truth.shape[1], dtype=bool)
+    return (w @ truth) / w.sum() >= theta - 1e-12
+
+
+def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random.Generator
+                      ) -> tuple[float, dict[str, float]]:
+    """The threshold whose precondition group best predicts held-out literal observations (module
+    docstring); 1.0 when nothing is held out."""
+    parts = []
+    for d in data:
+        held = rng.random(len(d.weights)) < o.holdout
+        parts.append((d.truth[~held], d.weights[~held], d.truth[held], d.weights[held]))
+    if not any(wh.sum() > 0 for *_, wh in parts):
+        return 1.0, {}
+    curve = {}
+    for theta in o.thresholds:
+        groups = [_context(tt, wt, theta) for tt, wt, _, _ in parts]
+        miss = sum(float((wt @ ~tt[:, g]).sum()) if g.any() else 0.0
+                   for (tt, wt, _, _), g in zip(parts, groups))
+        seen = sum(float(wt.sum() * g.sum()) for (_, wt, _, _), g in zip(parts, groups))
+        eps = (miss + 0.5) / (seen + 1.0)
+        ll = 0.0
+        for (tt, wt, th, wh), g in zip(parts, groups):
+            n, k = wt.sum(), wt @ tt
+            f = (k + 0.5) / (n + 1.0)
+            h = wh @ th
+            m = wh.sum()
+            p = np.where(g, 1.0 - eps, f)
+            ll += float(np.sum(h * np.log(p) + (m - h) * np.log1p(-p)))
+        curve[f"{theta:g}"] = ll
+    best = max(curve.values())
+    theta = min(t for t in o.thresholds if curve[f"{t:g}"] >= best - o.slack)
+    return theta, curve
+
+
+def _fit_action(d: _ActionData, theta: float, o: SuccessOptions) -> tuple[Rule | None, DefaultRule, dict]:
+    """The action's rule (context at ``theta``, outcomes induced on what it covers), its default."""
+    lo, hi = DEFAULT_CLIP
+    stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0}
+    if not d.reduced:
+        return None, DefaultRule(0.5), stats
+    ctx = tuple(sorted(l for l, m in zip(d.literals, _context(d.truth, d.weights, theta)) if m))
+    merged: dict[tuple, float] = {}
+    for e in d.reduced:
+        key = (e.state, e.action, e.succ, e.objects)
+        merged[key] = merged.get(key, 0.0) + e.weight
+    table = ExampleTable([Example(*k, w) for k, w in merged.items()], {l.atom.predicate: l.atom.arity
+                                                                        for l in d.literals})
+    action = Atom(d.name, d.variables)
+    cov: Coverage = table.cover(action, ctx, True)
+    rest = np.ones(len(table), dtype=bool)
+    rest[cov.index] = False
+    wr, ch = table.weights[rest], table.changed[rest]
+    default = DefaultRule(float(np.clip(wr[ch].sum() / wr.sum(), lo, hi)) if wr.sum() > 0 else 0.5)
+    if not len(cov):
+        return None, default, stats
+    of = induce_outcomes(table, cov, o.alpha, o.p_min)
+    rule = Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
+    n = float(table.weights[cov.index].sum())
+    fit = _smooth(RuleFit(rule, frozenset(cov.index.tolist()), of.loglik, n), o.nochange_prior)
+    stats.update(rules=1, score=of.loglik - o.alpha * rule.complexity(), covered=n)
+    return fit.rule, default, stats
