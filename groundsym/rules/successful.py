@@ -62,6 +62,7 @@ class SuccessOptions:
     p_min: float = P_MIN
     p_min_default: float = P_MIN_DEFAULT
     nochange_prior: float = 0.5
+    prune: bool = True
 
 
 def has_failures(examples: Sequence[Example]) -> bool:
@@ -80,6 +81,7 @@ class _ActionData:
     truth: np.ndarray
     weights: np.ndarray
     reduced: list[Example] = field(default_factory=list)
+    n_types: int = 0
 
 
 def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
@@ -96,8 +98,9 @@ def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int]
     theta, curve = (options.threshold, {}) if options.threshold is not None else \
         _choose_threshold(data, options, np.random.default_rng(seed))
     rules, defaults, report = [], [], LearnReport()
+    index = _state_index(examples, types)
     for d in data:
-        rule, default, stats = _fit_action(d, theta, options)
+        rule, default, stats = _fit_action(d, theta, options, index)
         if rule is not None:
             rules.append(rule)
         defaults.append((d.name, default))
@@ -154,7 +157,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     w = np.array([e.weight for e in kept], dtype=float)
     effects = _effects(atoms, before, after, w, effect_share)
     reduced = [_reduce(e, variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)]
-    return _ActionData(name, variables, lits, truth, w, reduced)
+    return _ActionData(name, variables, lits, truth, w, reduced, len(types) * arity)
 
 
 def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
@@ -220,13 +223,58 @@ def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random
     return theta, curve
 
 
-def _fit_action(d: _ActionData, theta: float, o: SuccessOptions) -> tuple[Rule | None, DefaultRule, dict]:
+def _state_index(examples: Sequence[Example], types: frozenset) -> list[dict[str, list[tuple[str, ...]]]]:
+    """The distinct observed states, each as predicate -> argument tuples (types left out)."""
+    seen = {s for e in examples for s in (e.state, e.succ)}
+    out = []
+    for s in sorted(seen, key=lambda x: sorted(x)):
+        by: dict[str, list[tuple[str, ...]]] = {}
+        for a in s:
+            if a.predicate not in types:
+                by.setdefault(a.predicate, []).append(a.args)
+        out.append(by)
+    return out
+
+
+def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]]], tolerance: float) -> bool:
+    """In (nearly) every observed state where ``pos`` holds for some objects, ``neg`` is false for
+    them: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
+    with_pos = both = 0
+    for by in index:
+        hit = False
+        found = False
+        for args in by.get(pos.predicate, ()):
+            b = dict(zip(pos.args, args))
+            if len(set(b.values())) != len(b) or any(b.get(v, x) != x for v, x in zip(pos.args, args)):
+                continue
+            hit = True
+            if any(all(b.get(v, x) == x for v, x in zip(neg.args, qargs)) for qargs in by.get(neg.predicate, ())):
+                found = True
+                break
+        with_pos += hit
+        both += found
+    return with_pos > 0 and both <= tolerance * with_pos
+
+
+def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -> list[Literal]:
+    """``ctx`` without the negated literals a positive one already excludes in the observed
+    states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
+    ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
+    pos = [l.atom for l in ctx if l.positive and l.atom.predicate not in types]
+    return [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance) for p in pos)]
+
+
+def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list
+                ) -> tuple[Rule | None, DefaultRule, dict]:
     """The action's rule (context at ``theta``, outcomes induced on what it covers), its default."""
     lo, hi = DEFAULT_CLIP
     stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0}
     if not d.reduced:
         return None, DefaultRule(0.5), stats
-    ctx = tuple(sorted(l for l, m in zip(d.literals, _context(d.truth, d.weights, theta)) if m))
+    ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, theta)) if m]
+    if o.prune:
+        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, 2 * (1 - theta))
+    ctx = tuple(sorted(ctx))
     merged: dict[tuple, float] = {}
     for e in d.reduced:
         key = (e.state, e.action, e.succ, e.objects)
