@@ -116,17 +116,18 @@ def _types_of(state: frozenset, types: frozenset) -> dict[str, set[str]]:
     return out
 
 
-def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str, int], set[str]]:
-    """For each (predicate, position): the types of the objects seen there (``object`` without
-    types). A negated literal is offered only where its atom is well typed by these."""
-    sig: dict[tuple[str, int], set[str]] = {}
+def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str, int], set[frozenset]]:
+    """For each (predicate, position): the types of the objects seen there, each object's as the
+    set of its type atoms (a type and its ancestors; ``object`` without types). A negated literal
+    is offered only where its atom is well typed by these."""
+    sig: dict[tuple[str, int], set[frozenset]] = {}
     for e in examples:
         for s in (e.state, e.succ):
             kinds = _types_of(s, types)
             for a in s:
                 if a.predicate not in types:
                     for k, o in enumerate(a.args):
-                        sig.setdefault((a.predicate, k), set()).update(kinds.get(o, {"object"}))
+                        sig.setdefault((a.predicate, k), set()).add(frozenset(kinds.get(o, {"object"})))
     return sig
 
 
@@ -147,7 +148,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
         for j, a in enumerate(atoms):
             g = a.substitute(ground)
             before[i, j], after[i, j] = g in e.state, g in e.succ
-        typed = np.array([all(kinds.get(ground[v], {"object"}) & sig.get((a.predicate, k), set())
+        typed = np.array([all(frozenset(kinds.get(ground[v], {"object"})) in sig.get((a.predicate, k), set())
                               for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
         nt = len(types) * arity
         truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
@@ -248,12 +249,26 @@ def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]
             if len(set(b.values())) != len(b) or any(b.get(v, x) != x for v, x in zip(pos.args, args)):
                 continue
             hit = True
-            if any(all(b.get(v, x) == x for v, x in zip(neg.args, qargs)) for qargs in by.get(neg.predicate, ())):
+            if any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ())):
                 found = True
                 break
         with_pos += hit
         both += found
     return with_pos > 0 and both <= tolerance * with_pos
+
+
+def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
+    """Do ``args`` fit ``variables`` under ``b``, with new variables on new, distinct objects?"""
+    b = dict(b)
+    for v, x in zip(variables, args):
+        if v in b:
+            if b[v] != x:
+                return False
+        elif x in b.values():
+            return False
+        else:
+            b[v] = x
+    return True
 
 
 def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -> list[Literal]:
