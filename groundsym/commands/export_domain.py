@@ -37,8 +37,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--goal", metavar="ATOMS",
                    help='goal literals, e.g. "(on o1 o2) (not (inhand o1))" (default: the highest-reward '
                         "abstract state in the data)")
-    p.add_argument("--noise", choices=NOISE_MODES, default="no-change",
-                   help="a rule's noise outcome: no change (default) or pessimistic (a dead end)")
+    p.add_argument("--noise", choices=(*NOISE_MODES, "drop"), default="no-change",
+                   help="a rule's noise outcome: no change (default), pessimistic (a dead end) or drop "
+                        "(outcome probabilities renormalised without it: noisy data, --determinize most-likely)")
+    p.add_argument("--operators", action="store_true",
+                   help="one typed operator per action, with the action's name and parameters (rules learned "
+                        "from successful-only traces: one rule per action, no deictic references)")
     p.add_argument("--determinize", choices=MODES, help="also write plain domain.pddl and problem.pddl")
     p.add_argument("--strips", action="store_true",
                    help="with --determinize: compile domain.pddl to plain STRIPS (grounded; no negative, "
@@ -81,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _export(model: Model, args: argparse.Namespace) -> int:
     """Build the export, write its files into ``--output`` and say what was written."""
-    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name)
+    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name,
+                            operators=args.operators)
     ex = build_export(model, options, args.model)
     domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
                                                           ex.goal_note)

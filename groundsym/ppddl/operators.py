@@ -75,11 +75,11 @@ def _operator(rule: Rule, types: dict[str, str | None], noise: str, decimals: in
             continue
         a = lit.atom.substitute(ren)
         pre.append(a if lit.positive else Not(a))
-    params = tuple(Typed(ren.get(v, v), _deepest(kinds[v], types)) for v in variables)
+    params = tuple(Typed(ren.get(v, v), deepest_type(kinds[v], types)) for v in variables)
     return Action(rule.action.predicate, params, And(tuple(pre)), _effect(rule, ren, noise, decimals))
 
 
-def _deepest(kinds: list[str], types: dict[str, str | None]) -> str:
+def deepest_type(kinds: list[str], types: dict[str, str | None]) -> str:
     """The most specific of the types a parameter has (one whose ancestors include the others)."""
     def ancestors(t: str) -> set[str]:
         out = {t}
