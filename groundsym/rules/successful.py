@@ -82,6 +82,8 @@ class _ActionData:
     weights: np.ndarray
     reduced: list[Example] = field(default_factory=list)
     n_types: int = 0
+    frame: tuple[float, float] = (0.0, 0.0)   # (weight of non-effect atoms that changed, of all seen)
+    changes: tuple = ()                       # (examples, atoms, before, after) for the effects
 
 
 def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
@@ -93,18 +95,24 @@ def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int]
     groups: dict[tuple[str, int], list[Example]] = {}
     for e in examples:
         groups.setdefault((e.action.predicate, e.action.arity), []).append(e)
-    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig, options.effect_share)
-            for name, arity in sorted(groups)]
-    theta, curve = (options.threshold, {}) if options.threshold is not None else \
-        _choose_threshold(data, options, np.random.default_rng(seed))
+    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig) for name, arity in sorted(groups)]
+    eps = _noise_rate(data)
+    for d in data:                   # a change noise alone explains is no effect
+        _reduce_all(d, max(options.effect_share, 3 * eps), types)
+    if options.threshold is not None:
+        theta, curve = options.threshold, {}
+    elif eps == 0:                   # noise-free: SAM's safe preconditions, nothing to choose
+        theta, curve = 1.0, {}
+    else:
+        theta, curve = _choose_threshold(data, options, np.random.default_rng(seed))
     rules, defaults, report = [], [], LearnReport()
     index = _state_index(examples, types)
     for d in data:
-        rule, default, stats = _fit_action(d, theta, options, index)
+        rule, default, stats = _fit_action(d, theta, options, index, eps)
         if rule is not None:
             rules.append(rule)
         defaults.append((d.name, default))
-        report.per_action[d.name] = {**stats, "threshold": theta, "heldout_loglik": curve}
+        report.per_action[d.name] = {**stats, "heldout_threshold": theta, "noise": eps, "heldout_loglik": curve}
     return RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, True, ()), report
 
 
@@ -132,7 +140,7 @@ def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str
 
 
 def _action_data(name: str, arity: int, examples: list[Example], predicates: dict[str, int], types: frozenset,
-                 sig: dict, effect_share: float) -> _ActionData:
+                 sig: dict) -> _ActionData:
     variables = tuple(f"?x{i + 1}" for i in range(arity))
     fluents = {p: k for p, k in predicates.items() if p not in types}
     atoms = atoms_over(variables, fluents, True)
@@ -140,6 +148,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
         [Literal(a, s) for a in atoms for s in (True, False)]
     truth = np.zeros((len(kept), len(lits)), dtype=bool)
+    typed_all = np.zeros((len(kept), len(atoms)), dtype=bool)
     before = np.zeros((len(kept), len(atoms)), dtype=bool)
     after = np.zeros_like(before)
     for i, e in enumerate(kept):
@@ -150,22 +159,32 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
             before[i, j], after[i, j] = g in e.state, g in e.succ
         typed = np.array([all(frozenset(kinds.get(ground[v], {"object"})) in sig.get((a.predicate, k), set())
                               for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
+        typed_all[i] = typed
         nt = len(types) * arity
         truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
                          for l in lits[:nt]]
         truth[i, nt::2] = before[i]
         truth[i, nt + 1::2] = ~before[i] & typed
     w = np.array([e.weight for e in kept], dtype=float)
-    effects = _effects(atoms, before, after, w, effect_share)
-    reduced = [_reduce(e, variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)]
-    return _ActionData(name, variables, lits, truth, w, reduced, len(types) * arity)
+    clear = _effects(atoms, before, after, w, 0.5)       # effects beyond doubt, for the noise estimate
+    still = typed_all & ~(clear[0] | clear[1])[None, :]
+    frame = (float(w @ (still & (before != after)).sum(axis=1)), float(w @ still.sum(axis=1)))
+    return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, frame,
+                       (kept, atoms, before, after))
+
+
+def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
+    """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
+    kept, atoms, before, after = d.changes
+    effects = _effects(atoms, before, after, d.weights, share)
+    d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)]
 
 
 def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
              ) -> tuple[np.ndarray, np.ndarray]:
     """Masks of the atoms whose addition (deletion) shows in at least ``share`` of the examples
     where it could show (the atom false before; true before): the effects, with changes that noise
-    alone explains left out."""
+    alone explains left out (``share`` is at least three times the estimated noise)."""
     def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
         den = w @ could
         return np.where(den > 0, (w @ (could & did)) / np.maximum(den, 1e-300), 0.0)
@@ -203,9 +222,10 @@ def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random
         parts.append((d.truth[~held], d.weights[~held], d.truth[held], d.weights[held]))
     if not any(wh.sum() > 0 for *_, wh in parts):
         return 1.0, {}
-    curve = {}
+    curve, chosen = {}, {}
     for theta in o.thresholds:
         groups = [_context(tt, wt, theta) for tt, wt, _, _ in parts]
+        chosen[theta] = tuple(np.flatnonzero(g).tobytes() for g in groups)
         miss = sum(float((wt @ ~tt[:, g]).sum()) if g.any() else 0.0
                    for (tt, wt, _, _), g in zip(parts, groups))
         seen = sum(float(wt.sum() * g.sum()) for (_, wt, _, _), g in zip(parts, groups))
@@ -221,7 +241,7 @@ def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random
         curve[f"{theta:g}"] = ll
     best = max(curve.values())
     theta = min(t for t in o.thresholds if curve[f"{t:g}"] >= best - o.slack)
-    return theta, curve
+    return max(t for t in o.thresholds if chosen[t] == chosen[theta]), curve   # same contexts: the higher
 
 
 def _state_index(examples: Sequence[Example], types: frozenset) -> list[dict[str, list[tuple[str, ...]]]]:
@@ -242,32 +262,23 @@ def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]
     them: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
     with_pos = both = 0
     for by in index:
-        hit = False
-        found = False
         for args in by.get(pos.predicate, ()):
             b = dict(zip(pos.args, args))
             if len(set(b.values())) != len(b) or any(b.get(v, x) != x for v, x in zip(pos.args, args)):
                 continue
-            hit = True
-            if any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ())):
-                found = True
-                break
-        with_pos += hit
-        both += found
+            with_pos += 1
+            both += any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ()))
     return with_pos > 0 and both <= tolerance * with_pos
 
 
 def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
-    """Do ``args`` fit ``variables`` under ``b``, with new variables on new, distinct objects?"""
+    """Do ``args`` fit ``variables`` under ``b``? New variables may take any object, also one
+    already bound: a PDDL operator's parameters need not be distinct, so ``sail ?from ?to`` keeps
+    ``(not (at-ferry ?to))``, which is what rules out sailing from a place to itself."""
     b = dict(b)
     for v, x in zip(variables, args):
-        if v in b:
-            if b[v] != x:
-                return False
-        elif x in b.values():
+        if b.setdefault(v, x) != x:
             return False
-        else:
-            b[v] = x
     return True
 
 
@@ -279,16 +290,38 @@ def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -
     return [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance) for p in pos)]
 
 
-def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list
+def _noise_rate(data: list[_ActionData]) -> float:
+    """The observation noise: an atom over an action's arguments that is no effect of it keeps its
+    value from state to successor, so where it differs one of the two observations was flipped;
+    with flip rate ``r`` that happens with probability ``2 r (1 - r)``. Noise-free data: 0."""
+    changed = sum(d.frame[0] for d in data)
+    seen = sum(d.frame[1] for d in data)
+    if seen <= 0 or changed <= 0:
+        return 0.0
+    q = min(changed / seen, 0.5)
+    return float((1.0 - np.sqrt(1.0 - 2.0 * q)) / 2.0)
+
+
+def _accept(theta: float, eps: float, w: np.ndarray) -> float:
+    """The frequency an action's literal needs: ``theta``, lowered to three standard errors below
+    ``1 - eps`` where the action has few examples (a true precondition seen false at the noise
+    rate ``eps`` can fall below ``theta`` by chance). Noise-free data (``eps = 0``): ``theta``."""
+    n = max(float(w.sum()), 1.0)
+    return min(theta, 1.0 - eps - 3.0 * np.sqrt(eps * (1.0 - eps) / n)) if eps > 0 else theta
+
+
+def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, eps: float = 0.0
                 ) -> tuple[Rule | None, DefaultRule, dict]:
     """The action's rule (context at ``theta``, outcomes induced on what it covers), its default."""
     lo, hi = DEFAULT_CLIP
-    stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0}
+    accept = theta if o.threshold is not None else _accept(theta, eps, d.weights)
+    stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0,
+             "threshold": accept}
     if not d.reduced:
         return None, DefaultRule(0.5), stats
-    ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, theta)) if m]
+    ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
     if o.prune:
-        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, 2 * (1 - theta))
+        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, 3 * eps)
     ctx = tuple(sorted(ctx))
     merged: dict[tuple, float] = {}
     for e in d.reduced:
