@@ -186,8 +186,9 @@ def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.nda
     where it could show (the atom false before; true before): the effects, with changes that noise
     alone explains left out (``share`` is at least three times the estimated noise)."""
     def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
-        den = w @ could
-        return np.where(den > 0, (w @ (could & did)) / np.maximum(den, 1e-300), 0.0)
+        den, num = w @ could, w @ (could & did)
+        often = num >= share * w.sum()   # and in that share of all the examples: a rarely true atom
+        return np.where((den > 0) & often, num / np.maximum(den, 1e-300), 0.0)   # flipped back is noise
     return frac(~before, after) >= share, frac(before, ~after) >= share
 
 
@@ -258,8 +259,13 @@ def _state_index(examples: Sequence[Example], types: frozenset) -> list[dict[str
 
 
 def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]]], tolerance: float) -> bool:
-    """In (nearly) every observed state where ``pos`` holds for some objects, ``neg`` is false for
-    them: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
+    """In the observed states, wherever ``pos`` holds for some objects, ``neg`` is false for them
+    (for every grounding of its other variables), but as often as noise at rate ``tolerance``
+    explains: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
+    free = {k for k, v in enumerate(neg.args) if v not in pos.args}
+    fan = 1
+    for k in free:                  # the groundings of the negated atom's other variables
+        fan *= max(1, len({qargs[k] for by in index for qargs in by.get(neg.predicate, ())}))
     with_pos = both = 0
     for by in index:
         for args in by.get(pos.predicate, ()):
@@ -268,7 +274,8 @@ def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]
                 continue
             with_pos += 1
             both += any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ()))
-    return with_pos > 0 and both <= tolerance * with_pos
+    # noise makes some grounding of the free variables true now and then: 1 - (1 - r)^fan
+    return with_pos > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * with_pos
 
 
 def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
@@ -287,7 +294,17 @@ def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
     pos = [l.atom for l in ctx if l.positive and l.atom.predicate not in types]
-    return [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance) for p in pos)]
+    out = [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance) for p in pos)]
+    return [l for l in out if not _mirrored(l, pos, index)]
+
+
+def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
+    """``lit`` is ``(p ?b ?a)`` beside ``(p ?a ?b)`` (parameters in order) and ``p`` is symmetric in
+    every observed state: ferry's ``(not-eq ?to ?from)`` says nothing ``(not-eq ?from ?to)`` does not."""
+    a = lit.atom
+    if not lit.positive or a.arity != 2 or a.args[0] <= a.args[1] or Atom(a.predicate, a.args[::-1]) not in pos:
+        return False
+    return all((y, x) in set(by.get(a.predicate, ())) for by in index for x, y in by.get(a.predicate, ()))
 
 
 def _noise_rate(data: list[_ActionData]) -> float:
@@ -321,7 +338,7 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
         return None, DefaultRule(0.5), stats
     ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
     if o.prune:
-        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, 3 * eps)
+        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, eps)
     ctx = tuple(sorted(ctx))
     merged: dict[tuple, float] = {}
     for e in d.reduced:
