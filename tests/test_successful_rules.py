@@ -24,6 +24,7 @@ from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
 from groundsym.rules.successful import SuccessOptions, has_failures, learn_from_successes
 from groundsym.symbolic_traces import write_symbolic_traces
+from test_ippc_lrtdp import _reachable
 
 FERRY = """(define (domain ferry)
   (:requirements :strips :typing :negative-preconditions)
@@ -63,25 +64,13 @@ def _dataset(n: int, seed: int = 0, flip: float = 0.0):
     return task, ds
 
 
-def _reachable(task: Task) -> list[frozenset]:
-    seen, todo = {task.initial_state}, [task.initial_state]
-    while todo:
-        s = todo.pop()
-        for a in task.applicable_actions(s):
-            for succ in task.distribution(s, a):
-                if succ.state not in seen:
-                    seen.add(succ.state)
-                    todo.append(succ.state)
-    return sorted(seen, key=sorted)
-
-
 def _same_as_truth(rules: RuleSet) -> None:
     """The learned operators, determinised, act as the true ones on every reachable state."""
     task = _task()
     learned = determinize(operator_domain(rules, {"at-ferry": 1, "at": 2, "empty-ferry": 0, "on": 1},
                                           types=TYPES, noise="drop"), None, "most-likely")[0]
     mine = Task(learned, {o.name: o.type for o in task.problem.objects})
-    states = _reachable(task)
+    states = sorted(_reachable(task), key=sorted)
     assert len(states) > 10
     for s in states:
         assert sorted(map(str, mine.applicable_actions(s))) == sorted(map(str, task.applicable_actions(s)))
