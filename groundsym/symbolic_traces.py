@@ -130,7 +130,9 @@ def symbolic_traces_from_doc(doc: Any, path: str | Path = "<symbolic traces>") -
         final_reward = r.number(fr, f"{f}.final_reward") if fr is not None else None
         traces.append(SymbolicTrace(tuple(objs), states, actions, rewards, final_reward))
     meta = doc.get("meta", {})
-    return SymbolicDataset(traces, preds, prims, meta if isinstance(meta, dict) else {})
+    ds = SymbolicDataset(traces, preds, prims, meta if isinstance(meta, dict) else {})
+    object_types(ds, path)              # a bad type declaration is reported before any work
+    return ds
 
 
 def read_symbolic_traces(path: str | Path) -> SymbolicDataset:

@@ -171,3 +171,13 @@ def test_operators_refuse_several_rules_per_action():
     rs = RuleSet((Rule(act, (), (Outcome(),), (1.0,), 0.0), Rule(act, (), (Outcome(),), (1.0,), 0.0)))
     with pytest.raises(Exception, match="action go has 2 rules"):
         operator_domain(rs, {})
+
+
+def test_undeclared_type_is_one_line_exit_2(tmp_path: Path):
+    _, ds = _dataset(2)
+    ds.meta["types"] = {"vehicle": None}
+    write_symbolic_traces(tmp_path / "bad.json", ds)
+    r = _cli("learn", "bad.json", "-o", "model", "--quiet", cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "bad.json: meta.types: 'vehicle' is not a declared unary predicate" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
