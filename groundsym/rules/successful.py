@@ -258,7 +258,8 @@ def _state_index(examples: Sequence[Example], types: frozenset) -> list[dict[str
     return out
 
 
-def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]]], tolerance: float) -> bool:
+def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]]], tolerance: float,
+               distinct: frozenset = frozenset()) -> bool:
     """In the observed states, wherever ``pos`` holds for some objects, ``neg`` is false for them
     (for every grounding of its other variables), but as often as noise at rate ``tolerance``
     explains: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
@@ -273,20 +274,41 @@ def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]
             if len(set(b.values())) != len(b) or any(b.get(v, x) != x for v, x in zip(pos.args, args)):
                 continue
             with_pos += 1
-            both += any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ()))
+            both += any(_extends(b, neg.args, qargs, distinct) for qargs in by.get(neg.predicate, ()))
     # noise makes some grounding of the free variables true now and then: 1 - (1 - r)^fan
     return with_pos > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * with_pos
 
 
-def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
+def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...],
+             distinct: frozenset = frozenset()) -> bool:
     """Do ``args`` fit ``variables`` under ``b``? New variables may take any object, also one
-    already bound: a PDDL operator's parameters need not be distinct, so ``sail ?from ?to`` keeps
-    ``(not (at-ferry ?to))``, which is what rules out sailing from a place to itself."""
+    already bound (a PDDL operator's parameters need not be distinct: ``sail ?from ?to`` alone
+    keeps ``(not (at-ferry ?to))``, which rules out sailing from a place to itself), unless the
+    context already keeps the two apart (``distinct``: pairs of variables)."""
     b = dict(b)
     for v, x in zip(variables, args):
+        if v not in b and any(b[u] == x for u in b if frozenset((u, v)) in distinct):
+            return False
         if b.setdefault(v, x) != x:
             return False
     return True
+
+
+def _distinct_pairs(ctx: list[Literal], index: list) -> frozenset:
+    """Pairs of variables a positive literal of ``ctx`` keeps apart: its predicate never holds,
+    in any observed state, with the same object in their two places (``(link ?start ?end)``,
+    ``(not-eq ?from ?to)``)."""
+    out = set()
+    for l in ctx:
+        a = l.atom
+        if not l.positive or a.arity < 2:
+            continue
+        for i in range(a.arity):
+            for j in range(i + 1, a.arity):
+                if a.args[i] != a.args[j] and not any(args[i] == args[j] for by in index
+                                                      for args in by.get(a.predicate, ())):
+                    out.add(frozenset((a.args[i], a.args[j])))
+    return frozenset(out)
 
 
 def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -> list[Literal]:
@@ -294,7 +316,8 @@ def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
     pos = [l.atom for l in ctx if l.positive and l.atom.predicate not in types]
-    out = [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance) for p in pos)]
+    apart = _distinct_pairs(ctx, index)
+    out = [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance, apart) for p in pos)]
     return [l for l in out if not _mirrored(l, pos, index)]
 
 
