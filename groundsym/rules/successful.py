@@ -39,7 +39,7 @@ from ..logic import Atom, Literal
 from .contexts import atoms_over
 from .coverage import Coverage, Example, ExampleTable
 from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
-from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet, _bindings
 from .outcomes import induce_outcomes
 
 THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
@@ -245,80 +245,54 @@ def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random
     return max(t for t in o.thresholds if chosen[t] == chosen[theta]), curve   # same contexts: the higher
 
 
-def _state_index(examples: Sequence[Example], types: frozenset) -> list[dict[str, list[tuple[str, ...]]]]:
-    """The distinct observed states, each as predicate -> argument tuples (types left out)."""
-    seen = {s for e in examples for s in (e.state, e.succ)}
-    out = []
-    for s in sorted(seen, key=lambda x: sorted(x)):
+def _state_index(examples: Sequence[Example], types: frozenset) -> tuple[list[frozenset], list[dict]]:
+    """The distinct observed states (types left out), and each as predicate -> argument tuples."""
+    seen = {frozenset(a for a in s if a.predicate not in types) for e in examples for s in (e.state, e.succ)}
+    states = sorted(seen, key=sorted)
+    index = []
+    for s in states:
         by: dict[str, list[tuple[str, ...]]] = {}
         for a in s:
-            if a.predicate not in types:
-                by.setdefault(a.predicate, []).append(a.args)
-        out.append(by)
-    return out
+            by.setdefault(a.predicate, []).append(a.args)
+        index.append(by)
+    return states, index
 
 
-def _exclusive(pos: Atom, neg: Atom, index: list[dict[str, list[tuple[str, ...]]]], tolerance: float,
-               distinct: frozenset = frozenset()) -> bool:
-    """In the observed states, wherever ``pos`` holds for some objects, ``neg`` is false for them
-    (for every grounding of its other variables), but as often as noise at rate ``tolerance``
-    explains: ``(holding ?x)`` excludes ``(handempty)``, ``(on ?x ?y)`` excludes ``(clear ?y)``."""
-    free = {k for k, v in enumerate(neg.args) if v not in pos.args}
+def _implied(pos: tuple[Literal, ...], neg: Atom, states: list[frozenset], index: list,
+             tolerance: float) -> bool:
+    """Wherever the positive literals ``pos`` hold together in an observed state, ``neg`` is false
+    (for every object its other variables could take), but as often as noise at rate ``tolerance``
+    explains: ``(holding ?x)`` excludes ``(handempty)``; ``(power_on ?i) (on_board ?i ?s)``
+    excludes ``(power_avail ?s)``. Parameters need not differ (PDDL), except where ``pos`` itself
+    keeps them apart: ``sail ?from ?to`` alone keeps ``(not (at-ferry ?to))``, beside
+    ``(not-eq ?from ?to)`` it goes."""
+    free = [k for k, v in enumerate(neg.args) if not any(v in l.atom.args for l in pos)]
     fan = 1
     for k in free:                  # the groundings of the negated atom's other variables
         fan *= max(1, len({qargs[k] for by in index for qargs in by.get(neg.predicate, ())}))
-    with_pos = both = 0
-    for by in index:
-        for args in by.get(pos.predicate, ()):
-            b = dict(zip(pos.args, args))
-            if len(set(b.values())) != len(b) or any(b.get(v, x) != x for v, x in zip(pos.args, args)):
-                continue
-            with_pos += 1
-            both += any(_extends(b, neg.args, qargs, distinct) for qargs in by.get(neg.predicate, ()))
+    seen = both = 0
+    for state, by in zip(states, index):
+        for b in _bindings(pos, state, {}, False, None, 10 ** 6):
+            seen += 1
+            both += any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ()))
     # noise makes some grounding of the free variables true now and then: 1 - (1 - r)^fan
-    return with_pos > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * with_pos
+    return seen > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * seen
 
 
-def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...],
-             distinct: frozenset = frozenset()) -> bool:
-    """Do ``args`` fit ``variables`` under ``b``? New variables may take any object, also one
-    already bound (a PDDL operator's parameters need not be distinct: ``sail ?from ?to`` alone
-    keeps ``(not (at-ferry ?to))``, which rules out sailing from a place to itself), unless the
-    context already keeps the two apart (``distinct``: pairs of variables)."""
+def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
+    """Do ``args`` fit ``variables`` under ``b`` (new variables take any object)?"""
     b = dict(b)
-    for v, x in zip(variables, args):
-        if v not in b and any(b[u] == x for u in b if frozenset((u, v)) in distinct):
-            return False
-        if b.setdefault(v, x) != x:
-            return False
-    return True
+    return all(b.setdefault(v, x) == x for v, x in zip(variables, args))
 
 
-def _distinct_pairs(ctx: list[Literal], index: list) -> frozenset:
-    """Pairs of variables a positive literal of ``ctx`` keeps apart: its predicate never holds,
-    in any observed state, with the same object in their two places (``(link ?start ?end)``,
-    ``(not-eq ?from ?to)``)."""
-    out = set()
-    for l in ctx:
-        a = l.atom
-        if not l.positive or a.arity < 2:
-            continue
-        for i in range(a.arity):
-            for j in range(i + 1, a.arity):
-                if a.args[i] != a.args[j] and not any(args[i] == args[j] for by in index
-                                                      for args in by.get(a.predicate, ())):
-                    out.add(frozenset((a.args[i], a.args[j])))
-    return frozenset(out)
-
-
-def _prune(ctx: list[Literal], types: set[str], index: list, tolerance: float) -> list[Literal]:
-    """``ctx`` without the negated literals a positive one already excludes in the observed
+def _prune(ctx: list[Literal], types: set[str], states: list[frozenset], index: list,
+           tolerance: float) -> list[Literal]:
+    """``ctx`` without the negated literals its positive literals already exclude in the observed
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
-    pos = [l.atom for l in ctx if l.positive and l.atom.predicate not in types]
-    apart = _distinct_pairs(ctx, index)
-    out = [l for l in ctx if l.positive or not any(_exclusive(p, l.atom, index, tolerance, apart) for p in pos)]
-    return [l for l in out if not _mirrored(l, pos, index)]
+    pos = tuple(l for l in ctx if l.positive and l.atom.predicate not in types)
+    out = [l for l in ctx if l.positive or not (pos and _implied(pos, l.atom, states, index, tolerance))]
+    return [l for l in out if not _mirrored(l, [l.atom for l in pos], index)]
 
 
 def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
@@ -361,7 +335,7 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
         return None, DefaultRule(0.5), stats
     ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
     if o.prune:
-        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, index, eps)
+        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, *index, eps)
     ctx = tuple(sorted(ctx))
     merged: dict[tuple, float] = {}
     for e in d.reduced:
