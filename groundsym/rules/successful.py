@@ -258,23 +258,22 @@ def _state_index(examples: Sequence[Example], types: frozenset) -> tuple[list[fr
     return states, index
 
 
-def _implied(pos: tuple[Literal, ...], neg: Atom, states: list[frozenset], index: list,
+def _implied(pos: tuple[Literal, ...], neg: Atom, bound: list[tuple[dict, list[dict[str, str]]]],
              tolerance: float) -> bool:
-    """Wherever the positive literals ``pos`` hold together in an observed state, ``neg`` is false
-    (for every object its other variables could take), but as often as noise at rate ``tolerance``
-    explains: ``(holding ?x)`` excludes ``(handempty)``; ``(power_on ?i) (on_board ?i ?s)``
-    excludes ``(power_avail ?s)``. Parameters need not differ (PDDL), except where ``pos`` itself
-    keeps them apart: ``sail ?from ?to`` alone keeps ``(not (at-ferry ?to))``, beside
-    ``(not-eq ?from ?to)`` it goes."""
+    """Wherever the positive literals ``pos`` hold together in an observed state (``bound``: each
+    state's index and the bindings of ``pos`` in it), ``neg`` is false (for every object its
+    other variables could take), but as often as noise at rate ``tolerance`` explains:
+    ``(holding ?x)`` excludes ``(handempty)``; ``(power_on ?i) (on_board ?i ?s)`` excludes
+    ``(power_avail ?s)``. Parameters need not differ (PDDL), except where ``pos`` itself keeps them
+    apart: ``sail ?from ?to`` alone keeps ``(not (at-ferry ?to))``, beside ``(not-eq ?from ?to)`` it goes."""
     free = [k for k, v in enumerate(neg.args) if not any(v in l.atom.args for l in pos)]
     fan = 1
     for k in free:                  # the groundings of the negated atom's other variables
-        fan *= max(1, len({qargs[k] for by in index for qargs in by.get(neg.predicate, ())}))
+        fan *= max(1, len({qargs[k] for by, _ in bound for qargs in by.get(neg.predicate, ())}))
     seen = both = 0
-    for state, by in zip(states, index):
-        for b in _bindings(pos, state, {}, False, None, 10 ** 6):
-            seen += 1
-            both += any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ()))
+    for by, binds in bound:
+        seen += len(binds)
+        both += sum(any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ())) for b in binds)
     # noise makes some grounding of the free variables true now and then: 1 - (1 - r)^fan
     return seen > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * seen
 
@@ -291,7 +290,10 @@ def _prune(ctx: list[Literal], types: set[str], states: list[frozenset], index: 
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
     pos = tuple(l for l in ctx if l.positive and l.atom.predicate not in types)
-    out = [l for l in ctx if l.positive or not (pos and _implied(pos, l.atom, states, index, tolerance))]
+    if not pos or all(l.positive for l in ctx):
+        return ctx
+    bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
+    out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
     return [l for l in out if not _mirrored(l, [l.atom for l in pos], index)]
 
 
