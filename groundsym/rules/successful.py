@@ -144,7 +144,8 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     variables = tuple(f"?x{i + 1}" for i in range(arity))
     fluents = {p: k for p, k in predicates.items() if p not in types}
     atoms = atoms_over(variables, fluents, True)
-    kept = [e for e in examples if len(set(e.action.args)) == arity]
+    kept = list(examples)        # also (move r1 a a): in PDDL parameters may repeat, and such an
+    #                              example says "(not (at ?r ?to))" is no precondition
     lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
         [Literal(a, s) for a in atoms for s in (True, False)]
     truth = np.zeros((len(kept), len(lits)), dtype=bool)
@@ -177,7 +178,8 @@ def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
     """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
     kept, atoms, before, after = d.changes
     effects = _effects(atoms, before, after, d.weights, share)
-    d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)]
+    d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)
+                 if len(set(e.action.args)) == len(e.action.args)]   # outcomes: NID's injective bindings
 
 
 def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
