@@ -30,7 +30,7 @@ offered, so ``(not (on ?x ?y))`` appears only where ``on`` can hold at all.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
@@ -42,6 +42,8 @@ from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
 from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet, _bindings
 from .outcomes import induce_outcomes
 
+#: unchanged pseudo-observations in the noise estimate: a few examples of a small problem say little
+PRIOR_UNCHANGED = 20.0
 THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
 
 
@@ -316,7 +318,7 @@ def _noise_rate(data: list[_ActionData]) -> float:
     seen = sum(d.frame[1] for d in data)
     if seen <= 0 or changed <= 0:
         return 0.0
-    q = min(changed / seen, 0.5)
+    q = min(changed / (seen + PRIOR_UNCHANGED), 0.5)
     return float((1.0 - np.sqrt(1.0 - 2.0 * q)) / 2.0)
 
 
@@ -325,7 +327,7 @@ def _accept(theta: float, eps: float, w: np.ndarray) -> float:
     ``1 - eps`` where the action has few examples (a true precondition seen false at the noise
     rate ``eps`` can fall below ``theta`` by chance). Noise-free data (``eps = 0``): ``theta``."""
     n = max(float(w.sum()), 1.0)
-    return min(theta, 1.0 - eps - 3.0 * np.sqrt(eps * (1.0 - eps) / n)) if eps > 0 else theta
+    return max(0.51, min(theta, 1.0 - eps - 3.0 * np.sqrt(eps * (1.0 - eps) / n))) if eps > 0 else theta
 
 
 def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, eps: float = 0.0
@@ -349,6 +351,8 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
                                                                         for l in d.literals})
     action = Atom(d.name, d.variables)
     cov: Coverage = table.cover(action, ctx, True)
+    if not len(cov) and accept < 1.0:   # no example meets the frequent literals together (noise, few
+        return _fit_action(d, 1.0, replace(o, threshold=1.0), index, 0.0)   # examples): SAM's context
     rest = np.ones(len(table), dtype=bool)
     rest[cov.index] = False
     wr, ch = table.weights[rest], table.changed[rest]
