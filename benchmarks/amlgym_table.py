@@ -66,10 +66,21 @@ def learn_groundsym(domain_path: str, traj_paths: list[str], objects: list[dict[
     plain, _ = determinize(dom, None, "most-likely")
     text = "\n".join(line for line in str(plain).splitlines() if not line.strip().startswith(";"))
     learned = {a.name for a in plain.actions}
-    extra = [f"  (:action {a}\n    :parameters ({' '.join(f'?{n} - {sig.type_predicate(t)}' for n, t in ps)})\n"
-             f"    :precondition (and)\n    :effect (and))" for a, ps in sorted(sig.operators.items())
-             if a not in learned]          # never seen, or never changing anything: an empty operator
+    extra = [_unseen(a, ps, sig) for a, ps in sorted(sig.operators.items()) if a not in learned]
     return text.rstrip()[:-1] + "\n" + "\n".join(extra) + ")\n" if extra else text
+
+
+def _unseen(name: str, params: tuple[tuple[str, str], ...], sig) -> str:
+    """An operator the trajectories never show (or never changing anything): SAM's safe choice,
+    every well-typed atom over its parameters as precondition and no effect, so no plan uses it."""
+    import itertools
+
+    def fits(t: str, want: str) -> bool:
+        return want == "object" or want in sig.ancestors(t)
+    pre = sorted({f"({p} {' '.join(args)})".replace(" )", ")") for p, ts in sig.predicates.items()
+                  for args in itertools.product(*([f"?{n}" for n, t in params if fits(t, w)] for w in ts))})
+    typed = " ".join(f"?{n} - {sig.type_predicate(t)}" for n, t in params)
+    return f"  (:action {name}\n    :parameters ({typed})\n    :precondition (and {' '.join(pre)})\n    :effect (and))"
 
 
 def learn_cell(learner: str, domain_path: str, traj_paths: list[str], objects: list[dict[str, str]],
