@@ -18,7 +18,6 @@ of the mass (docs/ppddl.md, Determinisation).
 from __future__ import annotations
 
 from dataclasses import replace
-from fractions import Fraction
 from typing import Mapping, Sequence
 
 from ..errors import UserError

@@ -19,8 +19,14 @@ literal is modelled by its own frequency. The held-out log-likelihood of the lit
 rises while true preconditions (seen true at one common rate) join the group and falls once a
 literal that is merely often true joins. Held-out data cannot tell a true precondition seen at the
 noise rate from a literal that merely happens to hold as often, so among the thresholds within
-``slack`` nats of the best the lowest (the most specific context, the safe side) is taken. On
-noise-free data a literal below 1.0 joins only if it costs nothing held out, so the result is SAM's.
+``slack`` nats of the best the lowest (the most specific context, the safe side) is taken.
+
+The noise rate itself comes from the data: an atom over the action's arguments that is no effect
+keeps its value from state to successor, so where it differs an observation was flipped. On
+noise-free data it is 0 and the threshold is SAM's 1.0 (no choice to make); with noise, a literal
+within three standard errors of ``1 - noise`` is kept too (an action seen a few times can see a
+true precondition flipped more often than the rate). Negated literals the context's positive
+literals already exclude in every observed state are left out (state invariants, as mutexes).
 
 Types: a unary predicate named in ``types`` is an object type (static, from the trace file); a
 literal over it is kept positive only (the operator's parameter type), and a negated literal whose
