@@ -90,7 +90,6 @@ class _ActionData:
     weights: np.ndarray
     reduced: list[Example] = field(default_factory=list)
     n_types: int = 0
-    frame: tuple[float, float] = (0.0, 0.0)   # (weight of non-effect atoms that changed, of all seen)
     changes: tuple = ()                       # (examples, atoms, before, after) for the effects
 
 
@@ -104,7 +103,7 @@ def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int]
     for e in examples:
         groups.setdefault((e.action.predicate, e.action.arity), []).append(e)
     data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig) for name, arity in sorted(groups)]
-    eps = _noise_rate(data)
+    eps = _noise_rate(examples, types, sig)
     for d in data:                   # a change noise alone explains is no effect
         _reduce_all(d, max(options.effect_share, 3 * eps), types)
     if options.threshold is not None:
@@ -157,7 +156,6 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
         [Literal(a, s) for a in atoms for s in (True, False)]
     truth = np.zeros((len(kept), len(lits)), dtype=bool)
-    typed_all = np.zeros((len(kept), len(atoms)), dtype=bool)
     before = np.zeros((len(kept), len(atoms)), dtype=bool)
     after = np.zeros_like(before)
     for i, e in enumerate(kept):
@@ -168,18 +166,13 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
             before[i, j], after[i, j] = g in e.state, g in e.succ
         typed = np.array([all(frozenset(kinds.get(ground[v], {"object"})) in sig.get((a.predicate, k), set())
                               for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
-        typed_all[i] = typed
         nt = len(types) * arity
         truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
                          for l in lits[:nt]]
         truth[i, nt::2] = before[i]
         truth[i, nt + 1::2] = ~before[i] & typed
     w = np.array([e.weight for e in kept], dtype=float)
-    clear = _effects(atoms, before, after, w, 0.5)       # effects beyond doubt, for the noise estimate
-    still = typed_all & ~(clear[0] | clear[1])[None, :]
-    frame = (float(w @ (still & (before != after)).sum(axis=1)), float(w @ still.sum(axis=1)))
-    return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, frame,
-                       (kept, atoms, before, after))
+    return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, (kept, atoms, before, after))
 
 
 def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
@@ -316,12 +309,34 @@ def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
     return all((y, x) in set(by.get(a.predicate, ())) for by in index for x, y in by.get(a.predicate, ()))
 
 
-def _noise_rate(data: list[_ActionData]) -> float:
-    """The observation noise: an atom over an action's arguments that is no effect of it keeps its
-    value from state to successor, so where it differs one of the two observations was flipped;
-    with flip rate ``r`` that happens with probability ``2 r (1 - r)``. Noise-free data: 0."""
-    changed = sum(d.frame[0] for d in data)
-    seen = sum(d.frame[1] for d in data)
+def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict) -> float:
+    """The observation noise: in STRIPS an action changes only atoms over its own arguments, so
+    an atom over other objects that differs between state and successor had an observation
+    flipped; with flip rate ``r`` that happens to each well-typed atom with probability
+    ``2 r (1 - r)``. The atoms counted are those the types allow (``sig``). Noise-free data: 0."""
+    arity: dict[str, int] = {}
+    for p, k in sig:
+        arity[p] = max(arity.get(p, 0), k + 1)
+    universe: dict[tuple, int] = {}      # per object set: the well-typed atoms over it
+
+    def atoms(objects: tuple[str, ...], kinds: dict[str, set[str]]) -> int:
+        if objects not in universe:
+            counts: dict[tuple[str, int], int] = {}
+            for o in objects:
+                k = frozenset(kinds.get(o, {"object"}))
+                for key, allowed in sig.items():
+                    counts[key] = counts.get(key, 0) + (k in allowed)
+            universe[objects] = sum(int(np.prod([counts.get((p, k), 0) for k in range(n)]))
+                                    for p, n in arity.items())
+        return universe[objects]
+
+    changed = seen = 0.0
+    for e in examples:
+        kinds = _types_of(e.state, types)
+        args = set(e.action.args)
+        seen += e.weight * (atoms(e.objects, kinds) - atoms(tuple(sorted(args)), kinds))
+        changed += e.weight * sum(1 for a in e.state ^ e.succ
+                                  if a.predicate not in types and a.args and not set(a.args) <= args)
     if seen <= 0 or changed <= 0:
         return 0.0
     q = min(changed / (seen + PRIOR_UNCHANGED), 0.5)
