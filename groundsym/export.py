@@ -30,13 +30,15 @@ from .ppddl.axioms import inline
 from .ppddl.compare import context_key, rules_close
 from .ppddl.determinize import determinize
 from .ppddl.from_rules import RulesWriter
+from .ppddl.operators import deepest_type, operator_domain
 from .ppddl.parser import parse_domain, parse_problem
 from .ppddl.requirements import requirements
 from .ppddl.rule_actions import rule_action_names
 from .ppddl.strips import relaxed_reachable, to_strips
 from .ppddl.to_rules import action_to_rule, domain_to_rules
 from .reward import Feature
-from .symbolic_traces import symbolic_traces_from_doc
+from .rules.model import drop_noise
+from .symbolic_traces import object_types, symbolic_traces_from_doc
 from .symbols import dataset_arrays
 from .traces import read_traces
 
@@ -48,14 +50,16 @@ class ExportOptions:
     """What to export besides the model: the scene of the problem (``FILE:TRACE:STEP``; None: the
     first state of the model's first training trace), its goal (literals as text; None: the
     highest-reward abstract state in the data), the noise mode
-    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`), the domain's name, and whether derived
-    predicates are declared once as axioms (:mod:`groundsym.ppddl.axioms`) or written out."""
+    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`, or ``drop``), the domain's name, whether
+    derived predicates are declared once as axioms (:mod:`groundsym.ppddl.axioms`) or written out,
+    and whether to write one typed operator per action (:mod:`groundsym.ppddl.operators`)."""
 
     scene: str | None = None
     goal: str | None = None
     noise: str = "no-change"
     name: str = "learned"
     axioms: bool = False            # derived predicates as (:derived ...) axioms, declared once
+    operators: bool = False
 
 
 @dataclass(frozen=True)
@@ -91,6 +95,10 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
     else:
         goal, goal_note = derived_goal(model, objects)
     reward = reward_effect(model)
+    if options.noise == "drop":          # conditioned on "no noise" (docs/ppddl.md, Determinisation)
+        model, options = replace(model, rules=drop_noise(model.rules)), replace(options, noise="no-change")
+    if options.operators:
+        return _operator_export(model, options, predicates, (objects, state, source), (goal, goal_note))
     writer = RulesWriter(model.rules, options.noise, DECIMALS, simple=True, drop_no_change=reward is None,
                          axioms=options.axioms)
     domain, dropped = writer.domain(predicates, options.name, predicate_comments(model), "")
@@ -108,6 +116,27 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
                       comment=f"initial state: {source}\n{goal_note}")
     _check_round_trip(model, domain, problem, dropped)
     return Export(domain, problem, dropped, objects, tuple(goal), goal_note, reward)
+
+
+def _operator_export(model: Model, options: ExportOptions, predicates: dict[str, int], scene: tuple,
+                     goal_of: tuple) -> Export:
+    """``--operators``: one typed operator per action (:mod:`groundsym.ppddl.operators`); the
+    problem's objects typed by their type atoms, which leave the initial state. No reward effects:
+    the task is the goal, as in the planning benchmarks this form is for (docs/amlgym.md)."""
+    (objects, state, source), (goal, goal_note) = scene, goal_of
+    sds = model.symbolic_traces
+    types = object_types(sds, model.path / "symbolic-traces.json") if sds is not None else {}
+    domain = operator_domain(model.rules, predicates, name=options.name, types=types, noise=options.noise,
+                             decimals=DECIMALS)
+    kinds = {o: [a.predicate for a in state if a.arity == 1 and a.args[0] == o and a.predicate in types]
+             for o in objects}
+    problem = Problem("scene", domain.name, tuple(Typed(o, deepest_type(kinds[o], types)) for o in objects),
+                      tuple(sorted(a for a in state if a.predicate not in types)),
+                      (And(tuple(l.atom if l.positive else Not(l.atom) for l in goal)) if goal else None),
+                      None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
+                      comment=f"initial state: {source}\n{goal_note}")
+    parse_problem(str(problem), parse_domain(str(domain), "<exported domain>"), "<exported problem>")
+    return Export(domain, problem, (), objects, tuple(goal), goal_note)
 
 
 # ------------------------------------------------------------------------------ predicate comments

@@ -54,10 +54,15 @@ def _header(domain: Domain, lines: dict[str, str]) -> Domain:
 
 
 def check_format(fmt: str, determinize: str | None, horizon: int | None, axioms: bool = False,
-                 strips: bool = False) -> None:
+                 strips: bool = False, operators: bool = False) -> None:
     """Refuse, in one line, an option that means nothing in ``fmt`` (before any work starts)."""
     if fmt not in FORMATS:
         raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    if operators and fmt != "ppddl":
+        raise UserError(f"--operators: only with --format ppddl (the typed one-operator-per-action form; {fmt} "
+                        "writes the rules as they are)")
+    if operators and axioms:
+        raise UserError("--axioms: not with --operators (an operator per action has no derived predicates)")
     if axioms and fmt == "rddl":
         raise UserError("--axioms: not with --format rddl (RDDL always declares derived predicates once, as "
                         "interm fluents)")

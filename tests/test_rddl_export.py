@@ -158,6 +158,8 @@ def test_format_options_refuse_meaningless_combinations(bw_model, tmp_path, caps
     for extra, message in ((["--format", "rddl", "--determinize", "all-outcomes"], "--determinize: only with --format ppddl"),
                            (["--format", "fond", "--determinize", "most-likely"], "--determinize: only with --format ppddl"),
                            (["--horizon", "5"], "--horizon: only with --format rddl"),
+                           (["--format", "rddl", "--operators"], "--operators: only with --format ppddl"),
+                           (["--operators", "--axioms"], "--axioms: not with --operators"),
                            (["--format", "rddl", "--horizon", "0"], "argument --horizon: must be at least 1"),
                            (["--format", "rdl"], "invalid choice")):
         with pytest.raises(SystemExit) if message.startswith(("argument", "invalid")) else _returns(2):

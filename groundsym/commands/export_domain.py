@@ -42,8 +42,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--goal", metavar="ATOMS",
                    help='goal literals, e.g. "(on o1 o2) (not (inhand o1))" (default: the highest-reward '
                         "abstract state in the data)")
-    p.add_argument("--noise", choices=NOISE_MODES, default="no-change",
-                   help="a rule's noise outcome: no change (default) or pessimistic (a dead end)")
+    p.add_argument("--noise", choices=(*NOISE_MODES, "drop"), default="no-change",
+                   help="a rule's noise outcome: no change (default), pessimistic (a dead end) or drop "
+                        "(outcome probabilities renormalised without it: noisy data, --determinize most-likely)")
+    p.add_argument("--operators", action="store_true",
+                   help="one typed operator per action, with the action's name and parameters (rules learned "
+                        "from successful-only traces: one rule per action, no deictic references)")
     p.add_argument("--format", choices=FORMATS, default="ppddl",
                    help="ppddl (default: domain.ppddl, problem.ppddl), rddl (domain.rddl, instance.rddl, for "
                         "pyRDDLGym and JaxPlan) or fond (domain.pddl, problem.pddl with oneof effects); docs/rddl.md")
@@ -88,14 +92,15 @@ def run(args: argparse.Namespace) -> int:
     check_identifier(args.name, "--name")
     if args.strips and not args.determinize:
         raise UserError("--strips: needs --determinize all-outcomes or most-likely")
-    check_format(args.format, args.determinize, args.horizon, args.axioms, args.strips)
+    check_format(args.format, args.determinize, args.horizon, args.axioms, args.strips, args.operators)
     with _renamed(load_model(args.model), args.rename) as model:
         return _export(model, args)
 
 
 def _export(model: Model, args: argparse.Namespace) -> int:
     """Build the export, write its files into ``--output`` and say what was written."""
-    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name, axioms=args.axioms)
+    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name, axioms=args.axioms,
+                            operators=args.operators)
     ex = build_export(model, options, args.model)
     domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
                                                           ex.goal_note)
