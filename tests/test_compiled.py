@@ -187,6 +187,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         lock[:, :n_pin] = [2, 1][2 - n_pin:]
         ucode, ecode = canonical.state_codes(u, b, lock)
         groups = compiled.twin_groups_row(ucode[0], ecode[0])
+        cgroups = compiled.twin_groups_row(ucode[1], ecode[1])
         best, first = None, None
         for seq in _kept_orders_brute(list(lock[0]), list(groups)):
             d = int((u[0][list(seq)] != u[1]).sum() + (b[0][np.ix_(seq, seq)] != b[1]).sum())
@@ -197,19 +198,20 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         uword = ucode & ((1 << k) - 1)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         target = -np.sort(-lock[0])
-        d, v = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
-                                       inn[1], lock[0], target, groups, cutoff, -1, *scratch)
+        sigma = np.full(m, -1, dtype=np.int64)
+        d = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
+                                   inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma)
         if best > cutoff:
             assert d == -1
             cut_hits += 1
             continue
-        sigma = [(v >> (3 * o)) & 7 for o in range(m)]
-        assert d == best and sigma == [first.index(o) for o in range(m)], (trial, d, best)
+        assert d == best and sigma.tolist() == [first.index(o) for o in range(m)], (trial, d, best)
         # any valid lower bound may end the walk early, never at another order than the first minimiser
         lo = best if trial % 2 else int(rng.integers(0, best + 1))
-        d2, v2 = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
-                                         out[1], inn[1], lock[0], target, groups, 1 << 30, lo, *scratch)
-        assert (d2, v2) == (d, v)
+        sigma2 = np.full(m, -1, dtype=np.int64)
+        d2 = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
+                                    out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2)
+        assert d2 == d and np.array_equal(sigma2, sigma)
     assert cut_hits >= 300, cut_hits
 
 

@@ -16,10 +16,9 @@ from .canonical import twin_groups_row
 from .heap import heap_pop, heap_push
 
 
-_SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
+_DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
 
-
-_DIST_SHIFT = 32
+MAX_OBJECTS = 62         # object sets are int64 bit masks (:func:`_object_masks`, :func:`_pair_distance`)
 
 
 @njit(cache=True)
@@ -170,8 +169,8 @@ def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
 
 
 @njit(cache=True)
-def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cutoff, lo,
-                   seq, used, nxt, cost):
+def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cgroups, cutoff, lo,
+                   seq, used, nxt, cost, sigma):
     """The distance of a query to a candidate class and its first minimising order, by branch and bound.
 
     Walks the kept orders of the enumeration (the query's object placed at each position, in
@@ -184,14 +183,28 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     the distance is at most ``cutoff``. A full order at ``lo`` (a lower bound) ends the walk, as
     the enumeration stops there.
 
-    Returns ``(d, sigma)``, sigma packed :data:`_SIGMA_BITS` bits per query object (its position
-    in the candidate); ``d`` is -1 when every order exceeds ``cutoff`` (nothing is known then
-    beyond "more than cutoff").
+    Symmetry breaking on both sides: twins of the query (``groups``) are placed in increasing
+    order, as the enumeration keeps them, and twin positions of the candidate (``cgroups``, per
+    position its first interchangeable one) receive increasing objects. Neither loses the first
+    minimiser: swapping two twins, or the objects at two twin positions, keeps the cost and the
+    locks, so an order that breaks either rule has an equal order before it (the earlier of the
+    two positions gets the smaller object). With many interchangeable objects (cubes that hold
+    no relation) the walk visits the partial matchings of the others, not their M! orders.
+
+    Returns ``d`` and writes the first minimising order into ``sigma`` (M,): per query object,
+    its position in the candidate; ``d`` is -1 when every order exceeds ``cutoff`` (nothing is
+    known then beyond "more than cutoff", and ``sigma`` is left as it was).
     """
     m = len(lock_q)
     full = (np.int64(1) << np.int64(m)) - np.int64(1)
     best = np.int64(-1)
-    best_v = np.int64(0)
+    cprev = np.empty(m, dtype=np.int64)      # per position, the previous twin position (-1: none)
+    for p in range(m):
+        cprev[p] = -1
+        for r in range(p - 1, -1, -1):
+            if cgroups[r] == cgroups[p]:
+                cprev[p] = r
+                break
     used[:] = False
     depth = 0
     nxt[0] = 0
@@ -202,17 +215,18 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
             d = cost[m]
             if best < 0 or d < best:
                 best = d
-                best_v = np.int64(0)
                 for p in range(m):
-                    best_v |= np.int64(p) << np.int64(_SIGMA_BITS * seq[p])
+                    sigma[seq[p]] = p
                 if d <= lo:
-                    return best, best_v
+                    return best
             depth -= 1
             used[seq[depth]] = False
             rq |= np.int64(1) << np.int64(seq[depth])
             continue
         placed = False
         o = nxt[depth]
+        if cprev[depth] >= 0 and o <= seq[cprev[depth]]:
+            o = seq[cprev[depth]] + 1            # twin positions take increasing objects
         rc = full & ~((np.int64(1) << np.int64(depth + 1)) - np.int64(1))
         while o < m:
             ok = not used[o] and lock_q[o] == target[depth]
@@ -245,11 +259,11 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
             if depth >= 0:
                 used[seq[depth]] = False
                 rq |= np.int64(1) << np.int64(seq[depth])
-    return best, best_v
+    return best
 
 
 @njit(cache=True)
-def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, sigmas):
     """NeighbourhoodEngine.nearest_enumerated for every lone class: exact nearest classes, all ties.
 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
@@ -266,7 +280,10 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     ``ids`` (C,) names each class by its canonical encoding (the caller interns the encodings)
     and ``memo`` (a numba typed dict) holds, per pair computed before, either the exact distance
     and first minimising order or a lower bound (flag :data:`_BOUND`): both are functions of the
-    two encodings alone, so what ran before changes the work, never the result.
+    two encodings alone, so what ran before changes the work, never the result. An exact entry
+    holds the distance and the offset of its order in ``sigmas`` (a numba typed list of uint8, M
+    entries per pair: one byte per object, so any M up to :data:`MAX_OBJECTS`; the caller starts
+    both afresh before the offsets outgrow 31 bits).
 
     Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
     sorted by query, then class: sigma maps the query's canonical positions onto the class's.
@@ -280,6 +297,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hc = np.empty(4 * q_n + 4, dtype=np.int64)
     packed = np.empty(c_n, dtype=np.int64)
     sigma_mask = _BOUND - np.int64(1)
+    sig = np.zeros(m, dtype=np.int64)
+    cgroups = np.empty((c_n, m), dtype=np.int64)      # twin groups of each candidate, when first needed
+    have_cgroups = np.zeros(c_n, dtype=np.bool_)
     pinned, pin, pu, pcount, pdeg, psorted = _pinned_tables(unary, binary, lock)
     ubits = np.int64((1 << n_unary) - 1)
     uword = np.empty((c_n, m), dtype=np.int64)
@@ -382,14 +402,19 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     groups = twin_groups_row(ucode[q], ecode[q])
                     target = -np.sort(-lock[q])
                     have_groups = True
+                if not have_cgroups[c]:
+                    cgroups[c] = twin_groups_row(ucode[c], ecode[c])
+                    have_cgroups[c] = True
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
-                d, sv = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
-                                       inn[c], lock[q], target, groups,
-                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost)
+                d = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
+                                   inn[c], lock[q], target, groups, cgroups[c],
+                                   cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig)
                 if d < 0:
                     v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
                 else:
-                    v = (d << np.int64(_DIST_SHIFT)) | sv
+                    v = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
+                    for p in range(m):
+                        sigmas.append(np.uint8(sig[p]))
                 memo[key] = v
             packed[c] = v
             dv = float(v >> np.int64(_DIST_SHIFT))
@@ -413,10 +438,12 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hs = np.empty((n_hits, m), dtype=np.int64)
     for t in range(n_hits):
         for p in range(m):
-            hs[t, p] = (hv[t] >> np.int64(_SIGMA_BITS * p)) & np.int64(7)
+            hs[t, p] = sigmas[hv[t] + p]
     return best, hq[:n_hits], hc[:n_hits], hs
 
 
 def new_memo():
-    """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
-    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+    """An empty pair memo for :func:`nearest_classes`: the memo (int64 -> int64) and the store
+    of its orders (uint8)."""
+    return (numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64),
+            numba.typed.List.empty_list(numba.types.uint8))
