@@ -139,13 +139,16 @@ def _pc(x):
     return np.int64(popcount(np.uint64(x)))
 
 
-@njit(cache=True, inline="always")
-def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
+@njit(cache=True)
+def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc):
     """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
     has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
     per symbol, the unary count difference among the rest, each placed object's out- and
-    in-degree difference into the rest, and the edge count difference within the rest. The edge
-    sets are disjoint and none is counted yet, so the sum is admissible."""
+    in-degree difference into the rest, and, for the edges within the rest, half the L1
+    difference of the sorted out-degree sequences plus that of the in-degree sequences (each
+    mismatched edge changes one out- and one in-degree; sorted is the best matching of two
+    sequences), rounded up. The edge sets are disjoint and none is counted yet, so the sum is
+    admissible. ``dq``/``dc`` (M,) are scratch."""
     k = umq.shape[0]
     l = outq.shape[1]
     m = outq.shape[0]
@@ -157,14 +160,20 @@ def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
             x = seq[p]
             r += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc))
             r += abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
-        eq_n = np.int64(0)
-        ec_n = np.int64(0)
-        for y in range(m):
-            if (rq >> np.int64(y)) & np.int64(1):
-                eq_n += _pc(outq[y, a] & rq)
-            if (rc >> np.int64(y)) & np.int64(1):
-                ec_n += _pc(outc[y, a] & rc)
-        r += abs(eq_n - ec_n)
+        h = np.int64(0)
+        for side in range(2):
+            nq = 0
+            nc = 0
+            for y in range(m):
+                if (rq >> np.int64(y)) & np.int64(1):
+                    insert_sorted(dq, nq, _pc((outq[y, a] if side == 0 else inq[y, a]) & rq))
+                    nq += 1
+                if (rc >> np.int64(y)) & np.int64(1):
+                    insert_sorted(dc, nc, _pc((outc[y, a] if side == 0 else inc[y, a]) & rc))
+                    nc += 1
+            for t in range(nq):
+                h += abs(dq[t] - dc[t])
+        r += (h + np.int64(1)) // np.int64(2)
     return r
 
 
@@ -198,6 +207,8 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     m = len(lock_q)
     full = (np.int64(1) << np.int64(m)) - np.int64(1)
     best = np.int64(-1)
+    dq = np.empty(m, dtype=np.int64)
+    dc = np.empty(m, dtype=np.int64)
     cprev = np.empty(m, dtype=np.int64)      # per position, the previous twin position (-1: none)
     for p in range(m):
         cprev[p] = -1
@@ -243,7 +254,7 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
                 limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
                 seq[depth] = o
                 rq_o = rq & ~(np.int64(1) << np.int64(o))
-                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc) < limit:
+                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc, dq, dc) < limit:
                     used[o] = True
                     rq = rq_o
                     nxt[depth] = o + 1
