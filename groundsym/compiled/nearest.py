@@ -18,6 +18,8 @@ from .heap import heap_pop, heap_push
 
 _DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
 
+ASSIGNMENT_FROM = 3      # the assignment bound is computed at nodes with at least this many objects left
+
 MAX_OBJECTS = 62         # object sets are int64 bit masks (:func:`_object_masks`, :func:`_pair_distance`)
 
 
@@ -178,6 +180,90 @@ def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc):
 
 
 @njit(cache=True)
+def _hungarian(mat, n, hu, hv, hp, way, minv, hused):
+    """The minimum of a linear assignment on ``mat[:n, :n]`` (int64 costs), by shortest augmenting
+    paths (Kuhn 1955 with potentials, O(n^3)); the other arguments are scratch of length >= n + 1."""
+    big = np.int64(1) << np.int64(60)
+    for j in range(n + 1):
+        hu[j] = 0
+        hv[j] = 0
+        hp[j] = 0
+        way[j] = 0
+    for i in range(1, n + 1):
+        hp[0] = i
+        j0 = 0
+        for j in range(n + 1):
+            minv[j] = big
+            hused[j] = False
+        while True:
+            hused[j0] = True
+            i0 = hp[j0]
+            delta = big
+            j1 = 0
+            for j in range(1, n + 1):
+                if not hused[j]:
+                    cur = mat[i0 - 1, j - 1] - hu[i0] - hv[j]
+                    if cur < minv[j]:
+                        minv[j] = cur
+                        way[j] = j0
+                    if minv[j] < delta:
+                        delta = minv[j]
+                        j1 = j
+            for j in range(n + 1):
+                if hused[j]:
+                    hu[hp[j]] += delta
+                    hv[j] -= delta
+                else:
+                    minv[j] -= delta
+            j0 = j1
+            if hp[j0] == 0:
+                break
+        while True:
+            j1 = way[j0]
+            hp[j0] = hp[j1]
+            j0 = j1
+            if j0 == 0:
+                break
+    return -hv[0]
+
+
+@njit(cache=True)
+def _assignment_bound(uq, eq, uc, ec, outq, inq, outc, inc, seq, depth, rq, rc, mat, xs, ps, hs):
+    """A lower bound on what a partial order must still add, tighter than :func:`_rest_bound`:
+    the linear assignment of the unplaced objects to the free positions where matching x with p
+    costs their unary mismatches, their edge mismatches with every placed pair (exact), and half
+    their out- and in-degree differences within the rest (the root bound of
+    ``relational.branch_and_bound`` at this node). Every completion pays at least its
+    assignment's cost, so the minimum, rounded up, is admissible. Costs are doubled to stay
+    integers; ``mat``, ``xs``, ``ps`` and the tuple ``hs`` are scratch."""
+    m = outq.shape[0]
+    l = outq.shape[1]
+    n = 0
+    for y in range(m):
+        if (rq >> np.int64(y)) & np.int64(1):
+            xs[n] = y
+            n += 1
+    t = 0
+    for y in range(m):
+        if (rc >> np.int64(y)) & np.int64(1):
+            ps[t] = y
+            t += 1
+    for i in range(n):
+        x = xs[i]
+        for j in range(n):
+            p = ps[j]
+            c = _pc(uq[x] ^ uc[p])
+            for r in range(depth):
+                c += _pc(eq[x, seq[r]] ^ ec[p, r]) + _pc(eq[seq[r], x] ^ ec[r, p])
+            c *= 2
+            for a in range(l):
+                c += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc)) + abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
+            mat[i, j] = c
+    total = _hungarian(mat, n, hs[0], hs[1], hs[2], hs[3], hs[4], hs[5])
+    return (total + np.int64(1)) // np.int64(2)
+
+
+@njit(cache=True)
 def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cgroups, cutoff, lo,
                    seq, used, nxt, cost, sigma):
     """The distance of a query to a candidate class and its first minimising order, by branch and bound.
@@ -209,6 +295,9 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     best = np.int64(-1)
     dq = np.empty(m, dtype=np.int64)
     dc = np.empty(m, dtype=np.int64)
+    mat = np.empty((m, m), dtype=np.int64)
+    hs = (np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64),
+          np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.bool_))
     cprev = np.empty(m, dtype=np.int64)      # per position, the previous twin position (-1: none)
     for p in range(m):
         cprev[p] = -1
@@ -254,7 +343,11 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
                 limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
                 seq[depth] = o
                 rq_o = rq & ~(np.int64(1) << np.int64(o))
-                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc, dq, dc) < limit:
+                go = c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc, dq, dc) < limit
+                if go and m - depth - 1 >= ASSIGNMENT_FROM:
+                    go = c + _assignment_bound(uq, eq, uc, ec, outq, inq, outc, inc, seq, depth + 1, rq_o, rc,
+                                               mat, dq, dc, hs) < limit
+                if go:
                     used[o] = True
                     rq = rq_o
                     nxt[depth] = o + 1
