@@ -254,6 +254,45 @@ def test_grouping_kernel_equals_group_rows():
         assert np.array_equal(first, ref_first) and np.array_equal(cls, ref_cls)
 
 
+def test_assignment_kernel_equals_scipy():
+    """The compiled linear assignment (the pair search's bound) against scipy's, on random integer
+    cost matrices of 1-20 rows, ties included."""
+    from scipy.optimize import linear_sum_assignment
+    rng = np.random.default_rng(8)
+    for _ in range(400):
+        n = int(rng.integers(1, 21))
+        mat = rng.integers(0, int(rng.integers(1, 30)), (n, n)).astype(np.int64)
+        r, c = linear_sum_assignment(mat)
+        hs = [np.empty(n + 1, np.int64) for _ in range(5)] + [np.empty(n + 1, np.bool_)]
+        assert nearest._hungarian(mat, n, *hs) == mat[r, c].sum()
+
+
+def test_pair_distance_beyond_7_objects_equals_the_reference_search():
+    """8 to 14 objects, where brute force cannot follow: the compiled pair search gives the exact
+    distance of relational.exact_state_distance and the order of relational.first_minimiser."""
+    from groundsym.relational import Encoded, exact_state_distance, first_minimiser
+    rng = np.random.default_rng(12)
+    for trial in range(60):
+        m, k, l = int(rng.integers(8, 15)), int(rng.integers(1, 3)), 1
+        u = (rng.random((2, m, k)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
+        b = (rng.random((2, m, m, l)) < rng.uniform(0.0, 0.12)).astype(np.uint8)
+        b[:, np.arange(m), np.arange(m)] = 0
+        lock = np.zeros((2, m), dtype=np.int64)
+        lock[:, 0] = 1
+        ucode, ecode = canonical.state_codes(u, b, lock)
+        um, out, inn = nearest._object_masks(u, b)
+        scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
+        sigma = np.full(m, -1, dtype=np.int64)
+        d = nearest._pair_distance(ucode[0] & ((1 << k) - 1), ecode[0], ucode[1] & ((1 << k) - 1), ecode[1], um[0],
+                                   out[0], inn[0], um[1], out[1], inn[1], lock[0], -np.sort(-lock[0]),
+                                   compiled.twin_groups_row(ucode[0], ecode[0]),
+                                   compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma)
+        ea, eb = (Encoded(u[i], b[i], np.zeros(0, np.uint8), lock[i], 0) for i in range(2))
+        want, perm = exact_state_distance(ea, eb)
+        assert d == want, trial
+        assert np.array_equal(sigma, first_minimiser(ea, eb, want, perm)), trial
+
+
 class _Recording(Loss):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -309,6 +348,25 @@ def test_annealing_search_scores_as_the_reference(tower16):
     loss in shuffled order; neighbourhoods compared on every 25th candidate."""
     n, compared = _compare_along_search(tower16, 1, 1, 1000, seed=5, neighbourhood_every=25)
     assert n >= 1000 and compared >= 80
+
+
+def test_annealing_search_at_10_objects_scores_as_the_reference():
+    """Past the enumeration's 7 objects (issue 35): 10 cubes of the kinematic fixture world, 300
+    evaluations of one restart, compiled against the numpy reference (branch and bound, then the
+    first minimising order), loss terms on every candidate, neighbourhoods on every 10th."""
+    from test_loss import kinematic_tower
+    data = prepare(kinematic_tower(8, seed=1, n_cubes=10))
+    n, compared = _compare_along_search(data, 1, 1, 300, seed=5, neighbourhood_every=10)
+    assert n >= 300 and compared >= 60
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cubes,traces,evals", [(10, 16, 1000), (14, 8, 300)])
+def test_long_searches_past_7_objects_score_as_the_reference(cubes, traces, evals):
+    from test_loss import kinematic_tower
+    data = prepare(kinematic_tower(traces, seed=1, n_cubes=cubes))
+    n, compared = _compare_along_search(data, 1, 1, evals, seed=5, neighbourhood_every=5)
+    assert n >= evals and compared >= 2 * evals // 5
 
 
 @pytest.mark.slow
