@@ -268,12 +268,12 @@ def test_assignment_kernel_equals_scipy():
 
 
 def test_pair_distance_beyond_7_objects_equals_the_reference_search():
-    """8 to 14 objects, where brute force cannot follow: the compiled pair search gives the exact
+    """8 to 12 objects, where brute force cannot follow: the compiled pair search gives the exact
     distance of relational.exact_state_distance and the order of relational.first_minimiser."""
     from groundsym.relational import Encoded, exact_state_distance, first_minimiser
     rng = np.random.default_rng(12)
-    for trial in range(60):
-        m, k, l = int(rng.integers(8, 15)), int(rng.integers(1, 3)), 1
+    for trial in range(30):
+        m, k, l = int(rng.integers(8, 13)), int(rng.integers(1, 3)), 1
         u = (rng.random((2, m, k)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
         b = (rng.random((2, m, m, l)) < rng.uniform(0.0, 0.12)).astype(np.uint8)
         b[:, np.arange(m), np.arange(m)] = 0
@@ -350,14 +350,14 @@ def test_annealing_search_scores_as_the_reference(tower16):
     assert n >= 1000 and compared >= 80
 
 
-def test_annealing_search_at_10_objects_scores_as_the_reference():
-    """Past the enumeration's 7 objects (issue 35): 10 cubes of the kinematic fixture world, 300
+def test_annealing_search_at_8_objects_scores_as_the_reference():
+    """Past the enumeration's 7 objects (issue 35): 8 cubes of the kinematic fixture world, 200
     evaluations of one restart, compiled against the numpy reference (branch and bound, then the
     first minimising order), loss terms on every candidate, neighbourhoods on every 10th."""
     from test_loss import kinematic_tower
-    data = prepare(kinematic_tower(8, seed=1, n_cubes=10))
-    n, compared = _compare_along_search(data, 1, 1, 300, seed=5, neighbourhood_every=10)
-    assert n >= 300 and compared >= 60
+    data = prepare(kinematic_tower(6, seed=1, n_cubes=8))
+    n, compared = _compare_along_search(data, 1, 1, 200, seed=5, neighbourhood_every=10)
+    assert n >= 200 and compared >= 40
 
 
 @pytest.mark.slow
