@@ -12,13 +12,14 @@ import math
 import numpy as np
 
 from .base import INF, insert_sorted, njit, numba, popcount
-from .canonical import twin_groups_row
+from .canonical import state_codes, twin_groups_row
 from .heap import heap_pop, heap_push
 
 
 _DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
 
 ASSIGNMENT_FROM = 3      # the assignment bound is computed at nodes with at least this many objects left
+STRONG_FROM = 8          # from this many objects, the dearer bounds (sorted degrees, the assignment)
 
 MAX_OBJECTS = 62         # object sets are int64 bit masks (:func:`_object_masks`, :func:`_pair_distance`)
 
@@ -112,6 +113,51 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
 
 
 _BOUND = np.int64(1) << np.int64(31)     # pair memo flag: the entry is a lower bound, not the distance
+_NO_ORDER = np.int64(1) << np.int64(30)  # pair memo flag: the exact distance, its first order not yet found
+_TWO_PHASE_FROM = 8                      # from this many objects, distances first in degree order
+
+
+@njit(cache=True)
+def _degree_orders(unary, binary, lock):
+    """Per class, its positions relabelled for the distance search: the arguments first (as they
+    are), then the others by decreasing number of true literals, stable. The most constrained
+    positions placed first make a quadratic assignment's branch and bound cut early; the order
+    does not change the distance, only the work. Returns the relabelled unary, binary and locks."""
+    c_n, m, k = unary.shape
+    l = binary.shape[3]
+    ru = np.empty_like(unary)
+    rb = np.empty_like(binary)
+    rl = np.empty_like(lock)
+    score = np.empty(m, dtype=np.int64)
+    order = np.empty(m, dtype=np.int64)
+    for c in range(c_n):
+        n = 0
+        for x in range(m):
+            s = np.int64(0)
+            for a in range(k):
+                s += unary[c, x, a]
+            for y in range(m):
+                for a in range(l):
+                    s += binary[c, x, y, a] + binary[c, y, x, a]
+            score[x] = s
+            if lock[c, x] != 0:
+                order[n] = x
+                n += 1
+        first_free = n
+        for x in range(m):
+            if lock[c, x] == 0:
+                t = n
+                while t > first_free and score[order[t - 1]] < score[x]:
+                    order[t] = order[t - 1]
+                    t -= 1
+                order[t] = x
+                n += 1
+        for x in range(m):
+            ru[c, x] = unary[c, order[x]]
+            rl[c, x] = lock[c, order[x]]
+            for y in range(m):
+                rb[c, x, y] = binary[c, order[x], order[y]]
+    return ru, rb, rl
 
 
 @njit(cache=True)
@@ -142,15 +188,16 @@ def _pc(x):
 
 
 @njit(cache=True)
-def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc):
+def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc, strong):
     """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
     has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
     per symbol, the unary count difference among the rest, each placed object's out- and
-    in-degree difference into the rest, and, for the edges within the rest, half the L1
-    difference of the sorted out-degree sequences plus that of the in-degree sequences (each
-    mismatched edge changes one out- and one in-degree; sorted is the best matching of two
-    sequences), rounded up. The edge sets are disjoint and none is counted yet, so the sum is
-    admissible. ``dq``/``dc`` (M,) are scratch."""
+    in-degree difference into the rest, and, for the edges within the rest, their count
+    difference or (``strong``) half the L1 difference of the sorted out-degree sequences plus that
+    of the in-degree sequences (each mismatched edge changes one out- and one in-degree; sorted is
+    the best matching of two sequences), rounded up, which is at least the count difference and
+    dearer. The edge sets are disjoint and none is counted yet, so the sum is admissible.
+    ``dq``/``dc`` (M,) are scratch."""
     k = umq.shape[0]
     l = outq.shape[1]
     m = outq.shape[0]
@@ -162,6 +209,16 @@ def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc):
             x = seq[p]
             r += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc))
             r += abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
+        if not strong:
+            eq_n = np.int64(0)
+            ec_n = np.int64(0)
+            for y in range(m):
+                if (rq >> np.int64(y)) & np.int64(1):
+                    eq_n += _pc(outq[y, a] & rq)
+                if (rc >> np.int64(y)) & np.int64(1):
+                    ec_n += _pc(outc[y, a] & rc)
+            r += abs(eq_n - ec_n)
+            continue
         h = np.int64(0)
         for side in range(2):
             nq = 0
@@ -293,6 +350,7 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     m = len(lock_q)
     full = (np.int64(1) << np.int64(m)) - np.int64(1)
     best = np.int64(-1)
+    strong = m >= STRONG_FROM
     dq = np.empty(m, dtype=np.int64)
     dc = np.empty(m, dtype=np.int64)
     mat = np.empty((m, m), dtype=np.int64)
@@ -343,8 +401,9 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
                 limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
                 seq[depth] = o
                 rq_o = rq & ~(np.int64(1) << np.int64(o))
-                go = c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc, dq, dc) < limit
-                if go and m - depth - 1 >= ASSIGNMENT_FROM:
+                go = c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc, dq, dc,
+                                                   strong) < limit
+                if go and strong and m - depth - 1 >= ASSIGNMENT_FROM:
                     go = c + _assignment_bound(uq, eq, uc, ec, outq, inq, outc, inc, seq, depth + 1, rq_o, rc,
                                                mat, dq, dc, hs) < limit
                 if go:
@@ -411,6 +470,22 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         for x in range(m):
             uword[c, x] = ucode[c, x] & ubits
     um, out, inn = _object_masks(unary, binary)
+    # from _TWO_PHASE_FROM objects, a pair's distance is searched with the candidate's positions in
+    # degree order (phase 1, :func:`_degree_orders`), and the first minimising order in the
+    # enumeration's order only for the pairs that end up tied at a query's nearest distance
+    # (phase 2, cut at that distance): far candidates never pay for the lexicographic walk
+    two_phase = m >= _TWO_PHASE_FROM
+    if two_phase:
+        du, db, dl = _degree_orders(unary, binary, lock)
+        ducode, decode = state_codes(du, db, dl)
+        dum, dout, dinn = _object_masks(du, db)
+    else:
+        dl, ducode, decode, dum, dout, dinn = lock, ucode, ecode, um, out, inn
+    duword = np.empty((c_n, m), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            duword[c, x] = ducode[c, x] & ubits
+    dgroups = np.empty((c_n, m), dtype=np.int64)
     seq = np.empty(m, dtype=np.int64)
     used = np.zeros(m, dtype=np.bool_)
     nxt = np.zeros(m + 1, dtype=np.int64)
@@ -508,13 +583,16 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     have_groups = True
                 if not have_cgroups[c]:
                     cgroups[c] = twin_groups_row(ucode[c], ecode[c])
+                    dgroups[c] = twin_groups_row(ducode[c], decode[c]) if two_phase else cgroups[c]
                     have_cgroups[c] = True
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
-                d = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
-                                   inn[c], lock[q], target, groups, cgroups[c],
+                d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c], dout[c],
+                                   dinn[c], lock[q], dl[c] if two_phase else target, groups, dgroups[c],
                                    cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig)
                 if d < 0:
                     v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
+                elif two_phase:
+                    v = (d << np.int64(_DIST_SHIFT)) | _NO_ORDER
                 else:
                     v = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
                     for p in range(m):
@@ -530,6 +608,22 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             if dist[c] == INF:
                 continue
             if dist[c] == b:
+                if (packed[c] & _NO_ORDER) != 0:       # phase 2: the first minimising order
+                    if not have_groups:
+                        groups = twin_groups_row(ucode[q], ecode[q])
+                        target = -np.sort(-lock[q])
+                        have_groups = True
+                    if not have_cgroups[c]:
+                        cgroups[c] = twin_groups_row(ucode[c], ecode[c])
+                        dgroups[c] = twin_groups_row(ducode[c], decode[c])
+                        have_cgroups[c] = True
+                    d = np.int64(b)
+                    _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
+                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig)
+                    packed[c] = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
+                    for p in range(m):
+                        sigmas.append(np.uint8(sig[p]))
+                    memo[base | ids[c]] = packed[c]
                 if n_hits == len(hq):
                     hq = np.concatenate((hq, np.empty_like(hq)))
                     hv = np.concatenate((hv, np.empty_like(hv)))
