@@ -111,7 +111,7 @@ def run_elsewhere(root: Path, traces: Path | None, evals: int, one_temperature: 
 
 
 def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, evals: int, max_cpu: float) -> dict:
-    """One cell of the curve in this process: a fresh loss, one annealing restart, in rounds of 25
+    """One cell of the curve in this process: a fresh loss, one annealing restart, in rounds of 5
     evaluations until ``evals`` or ``max_cpu`` CPU seconds."""
     from groundsym import compiled
     compiled.warm_up()
@@ -123,14 +123,16 @@ def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, eval
     state = start_restart(0, 0, loss, cfg)
     t0 = time.process_time()
     while state.done < evals and time.process_time() - t0 < max_cpu:
-        state = advance(state, loss, cfg, 25)
+        state = advance(state, loss, cfg, 5)
     cpu = time.process_time() - t0
     return {"objects": objects, "transitions": data.n_transitions, "symbols": f"{n_unary}+{n_binary}",
             "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu}
 
 
-def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, processes: int) -> list[dict]:
-    """Every cell of the curve, each the median rate of ``processes`` fresh processes."""
+def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, processes: int,
+          png: Path) -> list[dict]:
+    """Every cell of the curve, each the median rate of ``processes`` fresh processes; the plot is
+    redrawn after each cell, so a stopped run leaves the cells it measured."""
     rows = []
     for t in transitions:
         for u, b in ((1, 1), (2, 1)):
@@ -147,6 +149,7 @@ def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, 
                 print(f"{row['objects']:>3} objects  {row['transitions']:>5} transitions  {row['symbols']}  "
                       f"{row['rate']:>8.1f} evals per CPU s  (median of {len(runs)}; {row['evals']} evals each)",
                       flush=True)
+                plot_curve(rows, png)
     return rows
 
 
@@ -209,8 +212,7 @@ def main() -> int:
         if min(sizes) < 2 or max(sizes) > 62 or min(transitions) < 10 or args.processes < 1 or args.evals < 1:
             print("bench_loss.py: --sizes in 2..62, --transitions >= 10, --processes and --evals >= 1", file=sys.stderr)
             return 2
-        rows = curve(sizes, transitions, args.evals, args.max_cpu, args.processes)
-        plot_curve(rows, args.png)
+        curve(sizes, transitions, args.evals, args.max_cpu, args.processes, args.png)
         print(f"plot: {args.png}")
         return 0
     if args.json_only:
