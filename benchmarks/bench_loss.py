@@ -21,7 +21,7 @@ machine can measure.
     .venv/bin/python benchmarks/bench_loss.py --traces tower16.json --evals 3000 --before 1648be7
     # tower16.json: groundsym collect --sim tower --traces 16 --seed 0 -o tower16.json
 
-``--curve`` measures how the rate grows with the number of objects (issue 35): one annealing
+``--curve`` measures how the rate grows with the number of objects: one annealing
 restart per cell on the kinematic fixture world (``tests/test_loss.py``: 10-step traces, seed 1,
 the table grown with the cubes above 10), for each number of objects, transitions (160: 16
 traces; 1,000: 100) and symbol count (1+1, 2+1), each cell the median of ``--processes`` fresh
@@ -187,7 +187,7 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=2, help="alternations with --before (medians are reported)")
     ap.add_argument("--one-temperature", action="store_true",
                     help="anneal with ladder=1 (the search before commit 88e004a): compares kernels with older code")
-    ap.add_argument("--curve", action="store_true", help="the rate against the number of objects (issue 35)")
+    ap.add_argument("--curve", action="store_true", help="the rate against the number of objects")
     ap.add_argument("--sizes", default="7,10,14,20,30,40", help="--curve: numbers of objects, comma-separated")
     ap.add_argument("--transitions", default="160,1000", help="--curve: numbers of transitions, comma-separated")
     ap.add_argument("--processes", type=int, default=5, help="--curve: fresh processes per cell (median)")

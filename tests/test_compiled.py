@@ -14,7 +14,7 @@ import pytest
 
 from conftest import DATA
 from groundsym import compiled
-from groundsym.compiled import canonical, classes, heap, nearest
+from groundsym.compiled import canonical, classes, heap, nearest, pair_search
 from groundsym.anneal import AnnealConfig, advance, start_restart
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.relational.canonical import NUMPY_CANONICAL, canonical_form, canonical_forms
@@ -194,12 +194,12 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
             if best is None or d < best:
                 best, first = d, seq
         cutoff = [1 << 30, best, int(rng.integers(0, best + 3))][trial % 3]   # the boundary included
-        um, out, inn = nearest._object_masks(u, b)
+        um, out, inn = pair_search._object_masks(u, b)
         uword = ucode & ((1 << k) - 1)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         target = -np.sort(-lock[0])
         sigma = np.full(m, -1, dtype=np.int64)
-        d = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
+        d = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
                                    inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma)
         if best > cutoff:
             assert d == -1
@@ -209,7 +209,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         # any valid lower bound may end the walk early, never at another order than the first minimiser
         lo = best if trial % 2 else int(rng.integers(0, best + 1))
         sigma2 = np.full(m, -1, dtype=np.int64)
-        d2 = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
+        d2 = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
                                     out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2)
         assert d2 == d and np.array_equal(sigma2, sigma)
     assert cut_hits >= 300, cut_hits
@@ -264,7 +264,7 @@ def test_assignment_kernel_equals_scipy():
         mat = rng.integers(0, int(rng.integers(1, 30)), (n, n)).astype(np.int64)
         r, c = linear_sum_assignment(mat)
         hs = [np.empty(n + 1, np.int64) for _ in range(5)] + [np.empty(n + 1, np.bool_)]
-        assert nearest._hungarian(mat, n, *hs) == mat[r, c].sum()
+        assert pair_search._hungarian(mat, n, *hs) == mat[r, c].sum()
 
 
 def test_pair_distance_beyond_7_objects_equals_the_reference_search():
@@ -280,10 +280,10 @@ def test_pair_distance_beyond_7_objects_equals_the_reference_search():
         lock = np.zeros((2, m), dtype=np.int64)
         lock[:, 0] = 1
         ucode, ecode = canonical.state_codes(u, b, lock)
-        um, out, inn = nearest._object_masks(u, b)
+        um, out, inn = pair_search._object_masks(u, b)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         sigma = np.full(m, -1, dtype=np.int64)
-        d = nearest._pair_distance(ucode[0] & ((1 << k) - 1), ecode[0], ucode[1] & ((1 << k) - 1), ecode[1], um[0],
+        d = pair_search._pair_distance(ucode[0] & ((1 << k) - 1), ecode[0], ucode[1] & ((1 << k) - 1), ecode[1], um[0],
                                    out[0], inn[0], um[1], out[1], inn[1], lock[0], -np.sort(-lock[0]),
                                    compiled.twin_groups_row(ucode[0], ecode[0]),
                                    compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma)

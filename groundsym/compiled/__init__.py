@@ -21,7 +21,7 @@ steps) and nothing above it. One module per concern, each named after what it mi
   ``relational.canonical.canonical_forms``);
 - :mod:`.nearest`: the nearest classes of lone classes (reference:
   ``NeighbourhoodEngine.nearest_enumerated`` and :mod:`groundsym.relational.enumeration`), with
-  :mod:`.heap` ordering their candidates;
+  :mod:`.heap` ordering their candidates and :mod:`.pair_search` the distance of one pair;
 - :mod:`.classes`: one whole neighbourhood pass, classes and their profiles (reference:
   ``NeighbourhoodEngine.neighbours``, ``neighbourhood.group_rows``, ``neighbourhood.class_profiles``);
 - :mod:`.mixtures`: the transition and reward terms' entries and mixtures (reference:
