@@ -159,6 +159,16 @@ def _degree_orders(unary, binary, lock):
 
 
 @njit(cache=True)
+def _candidate_groups(c, have, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase):
+    """Fill class c's twin groups, in canonical order (``cgroups``) and in the degree order of
+    phase 1 (``dgroups``), the first time a pass needs them."""
+    if not have[c]:
+        cgroups[c] = twin_groups_row(ucode[c], ecode[c])
+        dgroups[c] = twin_groups_row(ducode[c], decode[c]) if two_phase else cgroups[c]
+        have[c] = True
+
+
+@njit(cache=True)
 def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, sigmas):
     """NeighbourhoodEngine.nearest_enumerated for every lone class: exact nearest classes, all ties.
 
@@ -311,13 +321,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 continue
             if v < 0 or (v & _BOUND) != 0:
                 if not have_groups:
-                    groups = twin_groups_row(ucode[q], ecode[q])
-                    target = -np.sort(-lock[q])
+                    groups, target = twin_groups_row(ucode[q], ecode[q]), -np.sort(-lock[q])
                     have_groups = True
-                if not have_cgroups[c]:
-                    cgroups[c] = twin_groups_row(ucode[c], ecode[c])
-                    dgroups[c] = twin_groups_row(ducode[c], decode[c]) if two_phase else cgroups[c]
-                    have_cgroups[c] = True
+                _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
                 d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c], dout[c],
                                    dinn[c], lock[q], dl[c] if two_phase else target, groups, dgroups[c],
@@ -343,13 +349,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             if dist[c] == b:
                 if (packed[c] & _NO_ORDER) != 0:       # phase 2: the first minimising order
                     if not have_groups:
-                        groups = twin_groups_row(ucode[q], ecode[q])
-                        target = -np.sort(-lock[q])
+                        groups, target = twin_groups_row(ucode[q], ecode[q]), -np.sort(-lock[q])
                         have_groups = True
-                    if not have_cgroups[c]:
-                        cgroups[c] = twin_groups_row(ucode[c], ecode[c])
-                        dgroups[c] = twin_groups_row(ducode[c], decode[c])
-                        have_cgroups[c] = True
+                    _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                     d = np.int64(b)
                     _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
                                    inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig)
