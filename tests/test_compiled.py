@@ -200,7 +200,8 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         target = -np.sort(-lock[0])
         sigma = np.full(m, -1, dtype=np.int64)
         d = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
-                                   inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma)
+                                   inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma,
+                                       pair_search.work_arrays(m))
         if best > cutoff:
             assert d == -1
             cut_hits += 1
@@ -210,7 +211,8 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         lo = best if trial % 2 else int(rng.integers(0, best + 1))
         sigma2 = np.full(m, -1, dtype=np.int64)
         d2 = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
-                                    out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2)
+                                    out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2,
+                                        pair_search.work_arrays(m))
         assert d2 == d and np.array_equal(sigma2, sigma)
     assert cut_hits >= 300, cut_hits
 
@@ -286,7 +288,8 @@ def test_pair_distance_beyond_7_objects_equals_the_reference_search():
         d = pair_search._pair_distance(ucode[0] & ((1 << k) - 1), ecode[0], ucode[1] & ((1 << k) - 1), ecode[1], um[0],
                                    out[0], inn[0], um[1], out[1], inn[1], lock[0], -np.sort(-lock[0]),
                                    compiled.twin_groups_row(ucode[0], ecode[0]),
-                                   compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma)
+                                   compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma,
+                                   pair_search.work_arrays(m))
         ea, eb = (Encoded(u[i], b[i], np.zeros(0, np.uint8), lock[i], 0) for i in range(2))
         want, perm = exact_state_distance(ea, eb)
         assert d == want, trial

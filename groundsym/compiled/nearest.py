@@ -14,7 +14,7 @@ import numpy as np
 from .base import INF, insert_sorted, njit, numba, popcount
 from .canonical import state_codes, twin_groups_row
 from .heap import heap_pop, heap_push
-from .pair_search import _object_masks, _pair_distance
+from .pair_search import _object_masks, _pair_distance, work_arrays
 
 
 _DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
@@ -229,6 +229,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         for x in range(m):
             duword[c, x] = ducode[c, x] & ubits
     dgroups = np.empty((c_n, m), dtype=np.int64)
+    work = work_arrays(m)
     seq = np.empty(m, dtype=np.int64)
     used = np.zeros(m, dtype=np.bool_)
     nxt = np.zeros(m + 1, dtype=np.int64)
@@ -327,7 +328,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
                 d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c], dout[c],
                                    dinn[c], lock[q], dl[c] if two_phase else target, groups, dgroups[c],
-                                   cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig)
+                                   cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig, work)
                 if d < 0:
                     v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
                 elif two_phase:
@@ -354,7 +355,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                     d = np.int64(b)
                     _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
-                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig)
+                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig, work)
                     packed[c] = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
                     for p in range(m):
                         sigmas.append(np.uint8(sig[p]))

@@ -177,8 +177,19 @@ def _assignment_bound(uq, eq, uc, ec, outq, inq, outc, inc, seq, depth, rq, rc, 
 
 
 @njit(cache=True)
+def work_arrays(m):
+    """Scratch of :func:`_pair_distance` for states of ``m`` objects, allocated once per pass rather
+    than ten arrays per pair searched: sorted degrees (2), the assignment's
+    matrix, the previous twin positions, the assignment's potentials and paths."""
+    return (np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64), np.empty((m, m), dtype=np.int64),
+            np.empty(m, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64),
+            np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64),
+            np.empty(m + 1, dtype=np.bool_))
+
+
+@njit(cache=True)
 def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cgroups, cutoff, lo,
-                   seq, used, nxt, cost, sigma):
+                   seq, used, nxt, cost, sigma, work):
     """The distance of a query to a candidate class and its first minimising order, by branch and bound.
 
     Walks the kept orders of the enumeration (the query's object placed at each position, in
@@ -207,12 +218,8 @@ def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, targe
     full = (np.int64(1) << np.int64(m)) - np.int64(1)
     best = np.int64(-1)
     strong = m >= STRONG_FROM
-    dq = np.empty(m, dtype=np.int64)
-    dc = np.empty(m, dtype=np.int64)
-    mat = np.empty((m, m), dtype=np.int64)
-    hs = (np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64),
-          np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.int64), np.empty(m + 1, dtype=np.bool_))
-    cprev = np.empty(m, dtype=np.int64)      # per position, the previous twin position (-1: none)
+    dq, dc, mat, cprev = work[0], work[1], work[2], work[3]   # cprev: per position, the previous twin position
+    hs = (work[4], work[5], work[6], work[7], work[8], work[9])
     for p in range(m):
         cprev[p] = -1
         for r in range(p - 1, -1, -1):
