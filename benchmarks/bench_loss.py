@@ -20,6 +20,16 @@ machine can measure.
 
     .venv/bin/python benchmarks/bench_loss.py --traces tower16.json --evals 3000 --before 1648be7
     # tower16.json: groundsym collect --sim tower --traces 16 --seed 0 -o tower16.json
+
+``--curve`` measures how the rate grows with the number of objects: one annealing
+restart per cell on the kinematic fixture world (``tests/test_loss.py``: 10-step traces, seed 1,
+the table grown with the cubes above 10), for each number of objects, transitions (160: 16
+traces; 1,000: 100) and symbol count (1+1, 2+1), each cell the median of ``--processes`` fresh
+processes (empty memos, numba's machine code loaded from its disk cache). A cell stops at
+``--evals`` evaluations or ``--max-cpu`` CPU seconds, whichever comes first, and reports the
+evaluations it did per CPU second. It prints the table and writes a PNG of the curve.
+
+    .venv/bin/python benchmarks/bench_loss.py --curve --sizes 7,10,14,20 --evals 1000 --processes 5 --png curve.png
 """
 
 from __future__ import annotations
@@ -100,6 +110,69 @@ def run_elsewhere(root: Path, traces: Path | None, evals: int, one_temperature: 
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
+def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, evals: int, max_cpu: float) -> dict:
+    """One cell of the curve in this process: a fresh loss, one annealing restart, in rounds of 5
+    evaluations until ``evals`` or ``max_cpu`` CPU seconds."""
+    from groundsym import compiled
+    compiled.warm_up()
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_loss import kinematic_tower
+    data = prepare(kinematic_tower(max(transitions // 10, 1), seed=1, n_cubes=objects))
+    cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary, evals=evals * 4, restarts=4)
+    loss = Loss(data)
+    state = start_restart(0, 0, loss, cfg)
+    t0 = time.process_time()
+    while state.done < evals and time.process_time() - t0 < max_cpu:
+        state = advance(state, loss, cfg, 5)
+    cpu = time.process_time() - t0
+    return {"objects": objects, "transitions": data.n_transitions, "symbols": f"{n_unary}+{n_binary}",
+            "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu}
+
+
+def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, processes: int,
+          png: Path) -> list[dict]:
+    """Every cell of the curve, each the median rate of ``processes`` fresh processes; the plot is
+    redrawn after each cell, so a stopped run leaves the cells it measured."""
+    rows = []
+    for t in transitions:
+        for u, b in ((1, 1), (2, 1)):
+            for m in sizes:
+                runs = []
+                for _ in range(processes):
+                    cmd = [sys.executable, str(Path(__file__).resolve()), "--cell", f"{m},{t},{u},{b}",
+                           "--evals", str(evals), "--max-cpu", str(max_cpu)]
+                    res = subprocess.run(cmd, capture_output=True, text=True, check=True, env=dict(os.environ))
+                    runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
+                row = dict(runs[0], rate=float(np.median([r["rate"] for r in runs])),
+                           evals=int(np.median([r["evals"] for r in runs])), processes=len(runs))
+                rows.append(row)
+                print(f"{row['objects']:>3} objects  {row['transitions']:>5} transitions  {row['symbols']}  "
+                      f"{row['rate']:>8.1f} evals per CPU s  (median of {len(runs)}; {row['evals']} evals each)",
+                      flush=True)
+                plot_curve(rows, png)
+    return rows
+
+
+def plot_curve(rows: list[dict], png: Path) -> None:
+    """Evaluations per CPU second against objects, one line per (transitions, symbols); written atomically."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for key in sorted({(r["transitions"], r["symbols"]) for r in rows}):
+        pts = sorted((r["objects"], r["rate"]) for r in rows if (r["transitions"], r["symbols"]) == key)
+        ax.plot(*zip(*pts), marker="o", label=f"{key[0]} transitions, {key[1]} symbols")
+    ax.axhline(1000, color="grey", ls=":", lw=1)
+    ax.axhline(300, color="grey", ls=":", lw=1)
+    ax.set(xlabel="objects", ylabel="loss evaluations per CPU second", yscale="log",
+           title="Symbol loss speed (one annealing restart, compiled kernels)")
+    ax.legend(fontsize=8)
+    tmp = png.with_name(png.name + ".tmp.png")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, png)
+
+
 def report(label: str, r: dict[str, float]) -> None:
     print(f"{label}: annealing {r['annealing']:.0f} evals per CPU second (1e5: {1e5 / r['annealing'] / 60:.1f} CPU min; "
           f"{r['abstractions']} distinct abstractions), random sets {r['random']:.0f} per CPU second"
@@ -114,9 +187,34 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=2, help="alternations with --before (medians are reported)")
     ap.add_argument("--one-temperature", action="store_true",
                     help="anneal with ladder=1 (the search before commit 88e004a): compares kernels with older code")
+    ap.add_argument("--curve", action="store_true", help="the rate against the number of objects")
+    ap.add_argument("--sizes", default="7,10,14,20,30,40", help="--curve: numbers of objects, comma-separated")
+    ap.add_argument("--transitions", default="160,1000", help="--curve: numbers of transitions, comma-separated")
+    ap.add_argument("--processes", type=int, default=5, help="--curve: fresh processes per cell (median)")
+    ap.add_argument("--max-cpu", type=float, default=120.0, help="--curve: CPU seconds at most per cell and process")
+    ap.add_argument("--png", type=Path, default=Path("loss-speed.png"), help="--curve: where the plot goes")
+    ap.add_argument("--cell", help=argparse.SUPPRESS)
     ap.add_argument("--json-only", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     one = args.one_temperature
+    if args.cell:
+        m, t, u, b = (int(x) for x in args.cell.split(","))
+        print(json.dumps(curve_cell(m, t, u, b, args.evals, args.max_cpu)))
+        return 0
+    if args.curve:
+        try:
+            sizes = [int(x) for x in args.sizes.split(",")]
+            transitions = [int(x) for x in args.transitions.split(",")]
+        except ValueError:
+            print(f"bench_loss.py: --sizes/--transitions: comma-separated integers, got {args.sizes!r} / "
+                  f"{args.transitions!r}", file=sys.stderr)
+            return 2
+        if min(sizes) < 2 or max(sizes) > 62 or min(transitions) < 10 or args.processes < 1 or args.evals < 1:
+            print("bench_loss.py: --sizes in 2..62, --transitions >= 10, --processes and --evals >= 1", file=sys.stderr)
+            return 2
+        curve(sizes, transitions, args.evals, args.max_cpu, args.processes, args.png)
+        print(f"plot: {args.png}")
+        return 0
     if args.json_only:
         print(json.dumps(workloads(args.traces, args.evals, None, one)))
         return 0

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import compiled
 from .mixtures import mixture_finish, mixture_ll, reward_entries, transition_entries
-from .neighbourhood import Neighbourhood, NeighbourhoodEngine, enumerates
+from .neighbourhood import Neighbourhood, NeighbourhoodEngine
 from .relational import canonical_forms
 from .symbols import Symbol, binary_truth, unary_truth
 
@@ -94,8 +94,9 @@ class NumpyBackend(Backend):
 
 class NumbaBackend(Backend):
     """The compiled kernels of :mod:`groundsym.compiled`: a whole neighbourhood pass in one call
-    up to :data:`~groundsym.relational.ENUMERATE_MAX` objects, and per-state and per-pair memos
-    in numba's typed containers, started afresh when they grow too large (same results)."""
+    up to :data:`~groundsym.compiled.nearest.MAX_OBJECTS` objects (the numpy engine beyond), and
+    per-state and per-pair memos in numba's typed containers, started afresh when they grow too
+    large (same results)."""
 
     name = "numba"
 
@@ -104,7 +105,7 @@ class NumbaBackend(Backend):
         self._state_memo = compiled.new_state_memo()
         self._intern = compiled.new_intern()
         self._pair_memo = compiled.new_memo()
-        self._memo_sizes = (0, 0, 0)
+        self._memo_sizes = (0, 0, 0, 0)
 
     @staticmethod
     def available() -> bool:
@@ -118,21 +119,21 @@ class NumbaBackend(Backend):
         return canonical_forms(u, b, lock, self._canon_cache, compiled.COMPILED_CANONICAL)
 
     def neighbours(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray) -> Neighbourhood:
-        if enumerates(u.shape[1]):
+        if u.shape[1] <= compiled.MAX_OBJECTS:
             return self._whole_pass(u, b, lock, label)
         return self.engine.neighbours(u, b, lock, label)
 
     def _whole_pass(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray) -> Neighbourhood:
         """The neighbourhood in one compiled call (:func:`compiled.neighbourhood`): the same
         classes, hits and permutations as the engine, without the array glue between the steps."""
-        states, classes, pairs = self._memo_sizes      # bounded memory: memos start afresh (same results)
+        states, classes, pairs, orders = self._memo_sizes   # bounded memory: memos start afresh (same results)
         if states > 200_000:
             self._state_memo = compiled.new_state_memo()
-        if classes > 500_000 or pairs > 4_000_000:
+        if classes > 500_000 or pairs > 4_000_000 or orders > 1 << 28:    # (offsets of orders: 31 bits)
             self._intern, self._pair_memo = compiled.new_intern(), compiled.new_memo()
         *fields, self._memo_sizes = compiled.neighbourhood(
             u, b, np.asarray(lock, dtype=np.int64), np.asarray(label, dtype=np.int64),
-            self._state_memo, *self._intern, self._pair_memo)
+            self._state_memo, *self._intern, *self._pair_memo)
         return Neighbourhood(*fields)
 
     def symbol_truth(self, s: Symbol, space: np.ndarray) -> np.ndarray:

@@ -24,8 +24,8 @@ from typing import Callable
 
 import numpy as np
 
-from .relational import (ENUMERATE_MAX, INF, Encoded, all_permutations, exact_state_distance, pack_words,
-                         permutation_positions, permuted_words, root_bounds, twin_groups, twin_groups_of)
+from .relational import (ENUMERATE_MAX, INF, Encoded, all_permutations, exact_state_distance, first_minimiser,
+                         pack_words, permutation_positions, permuted_words, root_bounds, twin_groups, twin_groups_of)
 
 #: ``canonical(unary, binary, lock) -> (forms, perms)``: canonical forms of a batch of states, as
 #: :func:`groundsym.relational.canonical_forms` returns them (with whatever memo the caller keeps).
@@ -194,6 +194,7 @@ class NeighbourhoodEngine:
         self._groups: dict[bytes, np.ndarray] = {}
         self._qwords: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._orders: dict[tuple[bytes, bytes], np.ndarray] = {}
+        self._first: dict[tuple[bytes, bytes], np.ndarray] = {}
 
     def neighbours(self, u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: np.ndarray) -> Neighbourhood:
         """Leave-one-out nearest neighbours of every item (exact, all ties), by class.
@@ -333,7 +334,18 @@ class NeighbourhoodEngine:
             if d < best:
                 best, hits = d, []
             hits.append((int(c), perm))
+        hits = [(c, self._first_order(rep_keys[k], rep_keys[c], q, reps[c], best, perm)) for c, perm in hits]
         return best, sorted(hits, key=lambda h: h[0])   # by class, as the enumeration gives them
+
+    def _first_order(self, ka: bytes, kb: bytes, a: Encoded, b: Encoded, d: float, perm: np.ndarray) -> np.ndarray:
+        """The minimising order the enumeration (and the compiled kernels) would return for the
+        pair (:func:`~groundsym.relational.first_minimiser`), memoised by the two encodings."""
+        got = self._first.get((ka, kb))
+        if got is None:
+            if len(self._first) > 200_000:
+                self._first.clear()
+            got = self._first[(ka, kb)] = first_minimiser(a, b, d, perm)
+        return got
 
     def _class_distance(self, ka: bytes, kb: bytes, a: Encoded, b: Encoded,
                         threshold: float) -> tuple[float, np.ndarray | None]:

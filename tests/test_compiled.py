@@ -14,7 +14,7 @@ import pytest
 
 from conftest import DATA
 from groundsym import compiled
-from groundsym.compiled import canonical, classes, heap, nearest
+from groundsym.compiled import canonical, classes, heap, nearest, pair_search
 from groundsym.anneal import AnnealConfig, advance, start_restart
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.relational.canonical import NUMPY_CANONICAL, canonical_form, canonical_forms
@@ -187,29 +187,33 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         lock[:, :n_pin] = [2, 1][2 - n_pin:]
         ucode, ecode = canonical.state_codes(u, b, lock)
         groups = compiled.twin_groups_row(ucode[0], ecode[0])
+        cgroups = compiled.twin_groups_row(ucode[1], ecode[1])
         best, first = None, None
         for seq in _kept_orders_brute(list(lock[0]), list(groups)):
             d = int((u[0][list(seq)] != u[1]).sum() + (b[0][np.ix_(seq, seq)] != b[1]).sum())
             if best is None or d < best:
                 best, first = d, seq
         cutoff = [1 << 30, best, int(rng.integers(0, best + 3))][trial % 3]   # the boundary included
-        um, out, inn = nearest._object_masks(u, b)
+        um, out, inn = pair_search._object_masks(u, b)
         uword = ucode & ((1 << k) - 1)
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         target = -np.sort(-lock[0])
-        d, v = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
-                                       inn[1], lock[0], target, groups, cutoff, -1, *scratch)
+        sigma = np.full(m, -1, dtype=np.int64)
+        d = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
+                                   inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma,
+                                       pair_search.work_arrays(m))
         if best > cutoff:
             assert d == -1
             cut_hits += 1
             continue
-        sigma = [(v >> (3 * o)) & 7 for o in range(m)]
-        assert d == best and sigma == [first.index(o) for o in range(m)], (trial, d, best)
+        assert d == best and sigma.tolist() == [first.index(o) for o in range(m)], (trial, d, best)
         # any valid lower bound may end the walk early, never at another order than the first minimiser
         lo = best if trial % 2 else int(rng.integers(0, best + 1))
-        d2, v2 = nearest._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
-                                         out[1], inn[1], lock[0], target, groups, 1 << 30, lo, *scratch)
-        assert (d2, v2) == (d, v)
+        sigma2 = np.full(m, -1, dtype=np.int64)
+        d2 = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
+                                    out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2,
+                                        pair_search.work_arrays(m))
+        assert d2 == d and np.array_equal(sigma2, sigma)
     assert cut_hits >= 300, cut_hits
 
 
@@ -250,6 +254,46 @@ def test_grouping_kernel_equals_group_rows():
         first, cls = compiled.group_keys(rows)
         ref_first, ref_cls = group_rows(rows)
         assert np.array_equal(first, ref_first) and np.array_equal(cls, ref_cls)
+
+
+def test_assignment_kernel_equals_scipy():
+    """The compiled linear assignment (the pair search's bound) against scipy's, on random integer
+    cost matrices of 1-20 rows, ties included."""
+    from scipy.optimize import linear_sum_assignment
+    rng = np.random.default_rng(8)
+    for _ in range(400):
+        n = int(rng.integers(1, 21))
+        mat = rng.integers(0, int(rng.integers(1, 30)), (n, n)).astype(np.int64)
+        r, c = linear_sum_assignment(mat)
+        hs = [np.empty(n + 1, np.int64) for _ in range(5)] + [np.empty(n + 1, np.bool_)]
+        assert pair_search._hungarian(mat, n, *hs) == mat[r, c].sum()
+
+
+def test_pair_distance_beyond_7_objects_equals_the_reference_search():
+    """8 to 12 objects, where brute force cannot follow: the compiled pair search gives the exact
+    distance of relational.exact_state_distance and the order of relational.first_minimiser."""
+    from groundsym.relational import Encoded, exact_state_distance, first_minimiser
+    rng = np.random.default_rng(12)
+    for trial in range(30):
+        m, k, l = int(rng.integers(8, 13)), int(rng.integers(1, 3)), 1
+        u = (rng.random((2, m, k)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
+        b = (rng.random((2, m, m, l)) < rng.uniform(0.0, 0.12)).astype(np.uint8)
+        b[:, np.arange(m), np.arange(m)] = 0
+        lock = np.zeros((2, m), dtype=np.int64)
+        lock[:, 0] = 1
+        ucode, ecode = canonical.state_codes(u, b, lock)
+        um, out, inn = pair_search._object_masks(u, b)
+        scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
+        sigma = np.full(m, -1, dtype=np.int64)
+        d = pair_search._pair_distance(ucode[0] & ((1 << k) - 1), ecode[0], ucode[1] & ((1 << k) - 1), ecode[1], um[0],
+                                   out[0], inn[0], um[1], out[1], inn[1], lock[0], -np.sort(-lock[0]),
+                                   compiled.twin_groups_row(ucode[0], ecode[0]),
+                                   compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma,
+                                   pair_search.work_arrays(m))
+        ea, eb = (Encoded(u[i], b[i], np.zeros(0, np.uint8), lock[i], 0) for i in range(2))
+        want, perm = exact_state_distance(ea, eb)
+        assert d == want, trial
+        assert np.array_equal(sigma, first_minimiser(ea, eb, want, perm)), trial
 
 
 class _Recording(Loss):
@@ -307,6 +351,25 @@ def test_annealing_search_scores_as_the_reference(tower16):
     loss in shuffled order; neighbourhoods compared on every 25th candidate."""
     n, compared = _compare_along_search(tower16, 1, 1, 1000, seed=5, neighbourhood_every=25)
     assert n >= 1000 and compared >= 80
+
+
+def test_annealing_search_at_8_objects_scores_as_the_reference():
+    """Past the enumeration's 7 objects (issue 35): 8 cubes of the kinematic fixture world, 200
+    evaluations of one restart, compiled against the numpy reference (branch and bound, then the
+    first minimising order), loss terms on every candidate, neighbourhoods on every 10th."""
+    from test_loss import kinematic_tower
+    data = prepare(kinematic_tower(6, seed=1, n_cubes=8))
+    n, compared = _compare_along_search(data, 1, 1, 200, seed=5, neighbourhood_every=10)
+    assert n >= 200 and compared >= 40
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cubes,traces,evals", [(10, 16, 1000), (14, 8, 300)])
+def test_long_searches_past_7_objects_score_as_the_reference(cubes, traces, evals):
+    from test_loss import kinematic_tower
+    data = prepare(kinematic_tower(traces, seed=1, n_cubes=cubes))
+    n, compared = _compare_along_search(data, 1, 1, evals, seed=5, neighbourhood_every=5)
+    assert n >= evals and compared >= 2 * evals // 5
 
 
 @pytest.mark.slow

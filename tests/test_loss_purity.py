@@ -85,3 +85,27 @@ def test_bowling_searches_rescore_identically(tmp_path):
     data = prepare(read_traces(out), config)
     log = _search(data, config, 1, 1, 2000, seed=0)
     assert _rescore_mismatches(data, config, log, fresh_every=10) == []
+
+
+def _fixture(cubes: int, traces: int):
+    from test_loss import kinematic_tower
+    return prepare(kinematic_tower(traces, seed=1, n_cubes=cubes), LossConfig())
+
+
+def test_candidates_past_7_objects_rescore_identically():
+    """10 cubes (issue 35: the compiled pass and its pair memo of orders serve any size now):
+    600 evaluations of one restart, re-scored in another order and on fresh losses."""
+    data = _fixture(10, 16)
+    log = _search(data, LossConfig(), 1, 1, 600, seed=3)
+    assert len(log) >= 600
+    assert _rescore_mismatches(data, LossConfig(), log, fresh_every=20) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cubes,traces,evals,fresh_every", [(10, 16, 3000, 1), (14, 16, 1000, 5)])
+def test_long_searches_past_7_objects_rescore_identically(cubes, traces, evals, fresh_every):
+    """Thousands of evaluations at 10 objects, every candidate re-scored on a brand-new Loss; 14
+    objects with every 5th."""
+    data = _fixture(cubes, traces)
+    log = _search(data, LossConfig(), 1, 1, evals, seed=4)
+    assert _rescore_mismatches(data, LossConfig(), log, fresh_every=fresh_every) == []

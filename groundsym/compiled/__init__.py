@@ -21,7 +21,7 @@ steps) and nothing above it. One module per concern, each named after what it mi
   ``relational.canonical.canonical_forms``);
 - :mod:`.nearest`: the nearest classes of lone classes (reference:
   ``NeighbourhoodEngine.nearest_enumerated`` and :mod:`groundsym.relational.enumeration`), with
-  :mod:`.heap` ordering their candidates;
+  :mod:`.heap` ordering their candidates and :mod:`.pair_search` the distance of one pair;
 - :mod:`.classes`: one whole neighbourhood pass, classes and their profiles (reference:
   ``NeighbourhoodEngine.neighbours``, ``neighbourhood.group_rows``, ``neighbourhood.class_profiles``);
 - :mod:`.mixtures`: the transition and reward terms' entries and mixtures (reference:
@@ -46,11 +46,11 @@ from .canonical import (COMPILED_CANONICAL, colour_order, colours, individualise
                         twin_groups_row)
 from .classes import group_keys, neighbourhood, new_intern
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
-from .nearest import nearest_classes, new_memo
+from .nearest import MAX_OBJECTS, nearest_classes, new_memo
 from .truth import rbf_holds
 
 __all__ = [
-    "AVAILABLE", "COMPILED_CANONICAL", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
+    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
     "mixture_sums", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
     "rbf_holds", "refine_row", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
     "twin_groups_row", "warm_up",
@@ -76,7 +76,7 @@ def warm_up() -> float:
         needing_search(ucode, ecode, col, perms)
         prof = np.zeros((2, 7), dtype=np.int64)
         nearest_classes(u, b, lock, np.zeros(2, dtype=np.int64), prof, 1, np.array([0, 1]), ucode, ecode,
-                        np.arange(2, dtype=np.int64), new_memo())
+                        np.arange(2, dtype=np.int64), *new_memo())
         cls = np.array([0, 1], dtype=np.int64)
         one = np.zeros(0, dtype=np.int64)
         transition_entries(u, b, np.array([0, 0]), np.array([1, 1]), np.array([[0, 1, 2], [0, 1, 2]]), cls,
@@ -88,7 +88,7 @@ def warm_up() -> float:
         mixture_sums(item, np.exp(diff), weight, 2)
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
-        neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), new_memo())
+        neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):
             cyc[0, i, (i + 1) % 4, 0] = 1

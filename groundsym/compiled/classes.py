@@ -144,15 +144,16 @@ def _intern(row, table, store):
 
 
 @njit(cache=True)
-def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
+def neighbourhood(u, b, lock, label, state_memo, table, store, memo, sigmas):
     """NeighbourhoodEngine.neighbours compiled whole (canonical forms, classes, nearest classes of
     lone classes).
 
     ``u`` (N, M, K), ``b`` (N, M, M, L), ``lock`` (N, M) int64, ``label`` (N,) int64 (< 256).
     ``state_memo`` as :func:`canonical_batch`; ``table``/``store`` intern the classes' keys
     (canonical form and primitive, :func:`_packed_keys`) for the pair ``memo`` of
-    :func:`nearest_classes`. Returns the fields of ``neighbourhood.Neighbourhood`` (cls, perms, lone,
-    best, hit query, class, sigma) and the sizes of the state memo, the interned keys and the pair memo
+    :func:`nearest_classes` and its store of orders ``sigmas``. Returns the fields of
+    ``neighbourhood.Neighbourhood`` (cls, perms, lone, best, hit query, class, sigma) and the sizes
+    of the state memo, the interned keys, the pair memo and its store
     (``len`` of a typed container called from Python compiles on first use, seconds, and costs a
     dispatch every time).
     """
@@ -192,8 +193,8 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo):
         ids[c] = _intern(keys[f], table, store)
     profile = _profiles_of(u, b, first)
     rucode, recode = state_codes(ru, rb, rl)
-    best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo)
-    return cls, perms, lone, best, hq, hc, hs, (len(state_memo), len(store), len(memo))
+    best, hq, hc, hs = nearest_classes(ru, rb, rl, labels, profile, k, lone, rucode, recode, ids, memo, sigmas)
+    return cls, perms, lone, best, hq, hc, hs, (len(state_memo), len(store), len(memo), len(sigmas))
 
 
 def new_intern():

@@ -1,7 +1,7 @@
 """The nearest classes of every lone class, compiled: ``NeighbourhoodEngine.nearest_enumerated``
 (:mod:`groundsym.neighbourhood`) and the bit-parallel enumeration of
 :mod:`groundsym.relational.enumeration` (their numpy reference), as a branch and bound over the
-same orders in the same order (:func:`_pair_distance`), cut where no order can beat the first
+same orders in the same order (:func:`.pair_search._pair_distance`), cut where no order can beat the first
 minimiser the enumeration returns; candidates visited in order of a lower bound
 (:func:`nearest_classes`, through :mod:`.heap`), pairs memoised across calls."""
 
@@ -12,14 +12,14 @@ import math
 import numpy as np
 
 from .base import INF, insert_sorted, njit, numba, popcount
-from .canonical import twin_groups_row
+from .canonical import state_codes, twin_groups_row
 from .heap import heap_pop, heap_push
+from .pair_search import _object_masks, _pair_distance, work_arrays
 
 
-_SIGMA_BITS = 3          # a sigma entry (a position < 8) packed in 3 bits: enumeration is for M <= 7
+_DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
 
-
-_DIST_SHIFT = 32
+MAX_OBJECTS = 62         # object sets are int64 bit masks (:mod:`.pair_search`)
 
 
 @njit(cache=True)
@@ -111,145 +111,65 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
 
 
 _BOUND = np.int64(1) << np.int64(31)     # pair memo flag: the entry is a lower bound, not the distance
+_NO_ORDER = np.int64(1) << np.int64(30)  # pair memo flag: the exact distance, its first order not yet found
+_TWO_PHASE_FROM = 8                      # from this many objects, distances first in degree order
 
 
 @njit(cache=True)
-def _object_masks(unary, binary):
-    """Per class, object sets as m-bit masks: ``um`` (C, K) the objects holding each unary symbol,
-    ``out``/``inn`` (C, M, L) each object's out- and in-neighbours under each binary symbol."""
+def _degree_orders(unary, binary, lock):
+    """Per class, its positions relabelled for the distance search: the arguments first (as they
+    are), then the others by decreasing number of true literals, stable. The most constrained
+    positions placed first make a quadratic assignment's branch and bound cut early; the order
+    does not change the distance, only the work. Returns the relabelled unary, binary and locks."""
     c_n, m, k = unary.shape
     l = binary.shape[3]
-    um = np.zeros((c_n, k), dtype=np.int64)
-    out = np.zeros((c_n, m, l), dtype=np.int64)
-    inn = np.zeros((c_n, m, l), dtype=np.int64)
+    ru = np.empty_like(unary)
+    rb = np.empty_like(binary)
+    rl = np.empty_like(lock)
+    score = np.empty(m, dtype=np.int64)
+    order = np.empty(m, dtype=np.int64)
     for c in range(c_n):
+        n = 0
         for x in range(m):
+            s = np.int64(0)
             for a in range(k):
-                if unary[c, x, a]:
-                    um[c, a] |= np.int64(1) << np.int64(x)
+                s += unary[c, x, a]
             for y in range(m):
                 for a in range(l):
-                    if binary[c, x, y, a]:
-                        out[c, x, a] |= np.int64(1) << np.int64(y)
-                        inn[c, y, a] |= np.int64(1) << np.int64(x)
-    return um, out, inn
-
-
-@njit(cache=True, inline="always")
-def _pc(x):
-    return np.int64(popcount(np.uint64(x)))
-
-
-@njit(cache=True, inline="always")
-def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc):
-    """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
-    has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
-    per symbol, the unary count difference among the rest, each placed object's out- and
-    in-degree difference into the rest, and the edge count difference within the rest. The edge
-    sets are disjoint and none is counted yet, so the sum is admissible."""
-    k = umq.shape[0]
-    l = outq.shape[1]
-    m = outq.shape[0]
-    r = np.int64(0)
-    for a in range(k):
-        r += abs(_pc(umq[a] & rq) - _pc(umc[a] & rc))
-    for a in range(l):
-        for p in range(depth):
-            x = seq[p]
-            r += abs(_pc(outq[x, a] & rq) - _pc(outc[p, a] & rc))
-            r += abs(_pc(inq[x, a] & rq) - _pc(inc[p, a] & rc))
-        eq_n = np.int64(0)
-        ec_n = np.int64(0)
-        for y in range(m):
-            if (rq >> np.int64(y)) & np.int64(1):
-                eq_n += _pc(outq[y, a] & rq)
-            if (rc >> np.int64(y)) & np.int64(1):
-                ec_n += _pc(outc[y, a] & rc)
-        r += abs(eq_n - ec_n)
-    return r
+                    s += binary[c, x, y, a] + binary[c, y, x, a]
+            score[x] = s
+            if lock[c, x] != 0:
+                order[n] = x
+                n += 1
+        first_free = n
+        for x in range(m):
+            if lock[c, x] == 0:
+                t = n
+                while t > first_free and score[order[t - 1]] < score[x]:
+                    order[t] = order[t - 1]
+                    t -= 1
+                order[t] = x
+                n += 1
+        for x in range(m):
+            ru[c, x] = unary[c, order[x]]
+            rl[c, x] = lock[c, order[x]]
+            for y in range(m):
+                rb[c, x, y] = binary[c, order[x], order[y]]
+    return ru, rb, rl
 
 
 @njit(cache=True)
-def _pair_distance(uq, eq, uc, ec, umq, outq, inq, umc, outc, inc, lock_q, target, groups, cutoff, lo,
-                   seq, used, nxt, cost):
-    """The distance of a query to a candidate class and its first minimising order, by branch and bound.
-
-    Walks the kept orders of the enumeration (the query's object placed at each position, in
-    lexicographic order) depth first, adding each placement's mismatches as it goes: the unary
-    bits (``uq``/``uc``: per object a word of its unary bits) and the edges (``eq``/``ec``: per
-    pair a word of its binary bits) to the objects already placed, both ways; :func:`_rest_bound`
-    bounds what the rest must add. A branch whose bound exceeds ``cutoff`` (before a full order
-    is found) or reaches the best full order so far is cut: neither can hold a first minimiser
-    the enumeration would return, so the result is the enumeration's (distance, order) whenever
-    the distance is at most ``cutoff``. A full order at ``lo`` (a lower bound) ends the walk, as
-    the enumeration stops there.
-
-    Returns ``(d, sigma)``, sigma packed :data:`_SIGMA_BITS` bits per query object (its position
-    in the candidate); ``d`` is -1 when every order exceeds ``cutoff`` (nothing is known then
-    beyond "more than cutoff").
-    """
-    m = len(lock_q)
-    full = (np.int64(1) << np.int64(m)) - np.int64(1)
-    best = np.int64(-1)
-    best_v = np.int64(0)
-    used[:] = False
-    depth = 0
-    nxt[0] = 0
-    cost[0] = 0
-    rq = full
-    while depth >= 0:
-        if depth == m:
-            d = cost[m]
-            if best < 0 or d < best:
-                best = d
-                best_v = np.int64(0)
-                for p in range(m):
-                    best_v |= np.int64(p) << np.int64(_SIGMA_BITS * seq[p])
-                if d <= lo:
-                    return best, best_v
-            depth -= 1
-            used[seq[depth]] = False
-            rq |= np.int64(1) << np.int64(seq[depth])
-            continue
-        placed = False
-        o = nxt[depth]
-        rc = full & ~((np.int64(1) << np.int64(depth + 1)) - np.int64(1))
-        while o < m:
-            ok = not used[o] and lock_q[o] == target[depth]
-            if ok:
-                for e in range(o):            # earlier twins of o must already be placed
-                    if groups[e] == groups[o] and not used[e]:
-                        ok = False
-                        break
-            if ok:
-                c = cost[depth] + _pc(uq[o] ^ uc[depth]) + _pc(eq[o, o] ^ ec[depth, depth])
-                for p in range(depth):
-                    x = seq[p]
-                    c += _pc(eq[o, x] ^ ec[depth, p]) + _pc(eq[x, o] ^ ec[p, depth])
-                limit = cutoff + 1 if best < 0 else best     # a branch must stay below this
-                seq[depth] = o
-                rq_o = rq & ~(np.int64(1) << np.int64(o))
-                if c < limit and c + _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth + 1, rq_o, rc) < limit:
-                    used[o] = True
-                    rq = rq_o
-                    nxt[depth] = o + 1
-                    cost[depth + 1] = c
-                    nxt[depth + 1] = 0
-                    depth += 1
-                    placed = True
-                    break
-            o += 1
-        if not placed:
-            nxt[depth] = 0
-            depth -= 1
-            if depth >= 0:
-                used[seq[depth]] = False
-                rq |= np.int64(1) << np.int64(seq[depth])
-    return best, best_v
+def _candidate_groups(c, have, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase):
+    """Fill class c's twin groups, in canonical order (``cgroups``) and in the degree order of
+    phase 1 (``dgroups``), the first time a pass needs them."""
+    if not have[c]:
+        cgroups[c] = twin_groups_row(ucode[c], ecode[c])
+        dgroups[c] = twin_groups_row(ducode[c], decode[c]) if two_phase else cgroups[c]
+        have[c] = True
 
 
 @njit(cache=True)
-def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo):
+def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, ecode, ids, memo, sigmas):
     """NeighbourhoodEngine.nearest_enumerated for every lone class: exact nearest classes, all ties.
 
     ``unary`` (C, M, K), ``binary`` (C, M, M, L), ``lock`` (C, M): class representatives in
@@ -266,7 +186,10 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     ``ids`` (C,) names each class by its canonical encoding (the caller interns the encodings)
     and ``memo`` (a numba typed dict) holds, per pair computed before, either the exact distance
     and first minimising order or a lower bound (flag :data:`_BOUND`): both are functions of the
-    two encodings alone, so what ran before changes the work, never the result.
+    two encodings alone, so what ran before changes the work, never the result. An exact entry
+    holds the distance and the offset of its order in ``sigmas`` (a numba typed list of uint8, M
+    entries per pair: one byte per object, so any M up to :data:`MAX_OBJECTS`; the caller starts
+    both afresh before the offsets outgrow 31 bits).
 
     Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
     sorted by query, then class: sigma maps the query's canonical positions onto the class's.
@@ -280,6 +203,9 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hc = np.empty(4 * q_n + 4, dtype=np.int64)
     packed = np.empty(c_n, dtype=np.int64)
     sigma_mask = _BOUND - np.int64(1)
+    sig = np.zeros(m, dtype=np.int64)
+    cgroups = np.empty((c_n, m), dtype=np.int64)      # twin groups of each candidate, when first needed
+    have_cgroups = np.zeros(c_n, dtype=np.bool_)
     pinned, pin, pu, pcount, pdeg, psorted = _pinned_tables(unary, binary, lock)
     ubits = np.int64((1 << n_unary) - 1)
     uword = np.empty((c_n, m), dtype=np.int64)
@@ -287,6 +213,23 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         for x in range(m):
             uword[c, x] = ucode[c, x] & ubits
     um, out, inn = _object_masks(unary, binary)
+    # from _TWO_PHASE_FROM objects, a pair's distance is searched with the candidate's positions in
+    # degree order (phase 1, :func:`_degree_orders`), and the first minimising order in the
+    # enumeration's order only for the pairs that end up tied at a query's nearest distance
+    # (phase 2, cut at that distance): far candidates never pay for the lexicographic walk
+    two_phase = m >= _TWO_PHASE_FROM
+    if two_phase:
+        du, db, dl = _degree_orders(unary, binary, lock)
+        ducode, decode = state_codes(du, db, dl)
+        dum, dout, dinn = _object_masks(du, db)
+    else:
+        dl, ducode, decode, dum, dout, dinn = lock, ucode, ecode, um, out, inn
+    duword = np.empty((c_n, m), dtype=np.int64)
+    for c in range(c_n):
+        for x in range(m):
+            duword[c, x] = ducode[c, x] & ubits
+    dgroups = np.empty((c_n, m), dtype=np.int64)
+    work = work_arrays(m)
     seq = np.empty(m, dtype=np.int64)
     used = np.zeros(m, dtype=np.bool_)
     nxt = np.zeros(m + 1, dtype=np.int64)
@@ -379,17 +322,21 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 continue
             if v < 0 or (v & _BOUND) != 0:
                 if not have_groups:
-                    groups = twin_groups_row(ucode[q], ecode[q])
-                    target = -np.sort(-lock[q])
+                    groups, target = twin_groups_row(ucode[q], ecode[q]), -np.sort(-lock[q])
                     have_groups = True
+                _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
-                d, sv = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
-                                       inn[c], lock[q], target, groups,
-                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost)
+                d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c], dout[c],
+                                   dinn[c], lock[q], dl[c] if two_phase else target, groups, dgroups[c],
+                                   cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig, work)
                 if d < 0:
                     v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
+                elif two_phase:
+                    v = (d << np.int64(_DIST_SHIFT)) | _NO_ORDER
                 else:
-                    v = (d << np.int64(_DIST_SHIFT)) | sv
+                    v = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
+                    for p in range(m):
+                        sigmas.append(np.uint8(sig[p]))
                 memo[key] = v
             packed[c] = v
             dv = float(v >> np.int64(_DIST_SHIFT))
@@ -401,6 +348,18 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
             if dist[c] == INF:
                 continue
             if dist[c] == b:
+                if (packed[c] & _NO_ORDER) != 0:       # phase 2: the first minimising order
+                    if not have_groups:
+                        groups, target = twin_groups_row(ucode[q], ecode[q]), -np.sort(-lock[q])
+                        have_groups = True
+                    _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
+                    d = np.int64(b)
+                    _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
+                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig, work)
+                    packed[c] = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
+                    for p in range(m):
+                        sigmas.append(np.uint8(sig[p]))
+                    memo[base | ids[c]] = packed[c]
                 if n_hits == len(hq):
                     hq = np.concatenate((hq, np.empty_like(hq)))
                     hv = np.concatenate((hv, np.empty_like(hv)))
@@ -413,10 +372,12 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hs = np.empty((n_hits, m), dtype=np.int64)
     for t in range(n_hits):
         for p in range(m):
-            hs[t, p] = (hv[t] >> np.int64(_SIGMA_BITS * p)) & np.int64(7)
+            hs[t, p] = sigmas[hv[t] + p]
     return best, hq[:n_hits], hc[:n_hits], hs
 
 
 def new_memo():
-    """An empty pair memo for :func:`nearest_classes` (int64 -> int64)."""
-    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+    """An empty pair memo for :func:`nearest_classes`: the memo (int64 -> int64) and the store
+    of its orders (uint8)."""
+    return (numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64),
+            numba.typed.List.empty_list(numba.types.uint8))

@@ -39,7 +39,7 @@ compiled kernels of the loss that mirror the enumeration and the canonical forms
 is importable from this package.
 """
 
-from .branch_and_bound import exact_state_distance, permutation_cost, root_bounds, twin_groups
+from .branch_and_bound import exact_state_distance, first_minimiser, permutation_cost, root_bounds, twin_groups
 from .canonical import canonical_forms, twin_groups_of
 from .encoding import INF, Encoded, encode_state
 from .enumeration import (ENUMERATE_MAX, all_permutations, naive_state_distance, pack_words, permutation_positions,
@@ -49,7 +49,7 @@ from .scenes import naive_scene_distance, scene_distance
 
 __all__ = [
     "ENUMERATE_MAX", "INF", "Encoded", "Neighbours", "all_permutations", "canonical_forms", "count_bound",
-    "encode_state", "exact_state_distance", "naive_scene_distance", "naive_state_distance", "nearest", "pack_words",
+    "encode_state", "exact_state_distance", "first_minimiser", "naive_scene_distance", "naive_state_distance", "nearest", "pack_words",
     "permutation_cost", "permutation_positions", "permuted_words", "root_bounds", "scene_distance",
     "state_distance", "twin_groups", "twin_groups_of",
 ]

@@ -201,3 +201,46 @@ def root_bounds(a: Encoded, cands: Sequence[Encoded]) -> tuple[np.ndarray, np.nd
     bad = (lb >= FORBIDDEN_COST) | np.array([c.label != a.label for c in cands])
     lb[bad], ub[bad] = INF, INF
     return lb, ub.astype(float)
+
+
+def first_minimiser(a: Encoded, b: Encoded, d: float, perm: np.ndarray) -> np.ndarray:
+    """The first order (in lexicographic order of the query object at candidate position 0, 1,
+    ...) among those at the exact distance ``d`` of ``a`` (the query) to ``b``; ``perm`` is some
+    minimiser (``a``'s object i -> position ``perm[i]`` of ``b``), as :func:`exact_state_distance`
+    returns it.
+
+    Which of several minimising orders predicts matters to the loss, so it must not depend on the
+    search that found the distance: this is the order the bit-parallel enumeration returns (it
+    walks the orders in that order). Position by position, the smallest object that still admits
+    a completion at ``d`` is fixed, each test an exact search with the objects fixed so far pinned
+    to their positions (a lock bit of their own on both sides); the known minimiser answers
+    without a search where it already puts that object there. Objects interchangeable with a
+    smaller unplaced one are skipped (swapping them leaves the cost and an earlier order).
+    """
+    m = a.n_objects
+    lock_a, lock_b = a.lock.copy(), b.lock.copy()
+    base = int(max(a.lock.max(initial=0), b.lock.max(initial=0))).bit_length()
+    groups = twin_groups(a)
+    placed = np.zeros(m, dtype=bool)
+    perm = np.asarray(perm, dtype=np.int64).copy()
+    for p in range(m):
+        seen: set[int] = set()
+        for o in range(m):
+            if placed[o] or a.lock[o] != b.lock[p] or int(groups[o]) in seen:
+                continue
+            seen.add(int(groups[o]))
+            if perm[o] != p:
+                pin = 1 << (base + p)
+                trial_a, trial_b = lock_a.copy(), lock_b.copy()
+                trial_a[o] |= pin
+                trial_b[p] |= pin
+                dist, found = exact_state_distance(Encoded(a.unary, a.binary, a.nullary, trial_a, a.label),
+                                                   Encoded(b.unary, b.binary, b.nullary, trial_b, b.label), d + 0.5)
+                if found is None or dist > d:
+                    continue
+                perm = found
+            lock_a[o] |= 1 << (base + p)
+            lock_b[p] |= 1 << (base + p)
+            placed[o] = True
+            break
+    return perm
