@@ -57,16 +57,22 @@ class Controller(Protocol):
 
 @dataclass(frozen=True)
 class Primitive:
-    """An object-parameterised skill: ``arg_types[k]`` is the object type argument k takes."""
+    """An object-parameterised skill: ``arg_types[k]`` is the object type (or a tuple of types)
+    argument k takes; ``make(state, args, rng)`` builds its controller for one run."""
 
     name: str
-    arg_types: tuple[str, ...]
+    arg_types: tuple[str | tuple[str, ...], ...]
     make: Callable[[ObjectState, tuple[str, ...], np.random.Generator], Controller]
     max_steps: int = 300
 
     @property
     def arity(self) -> int:
         return len(self.arg_types)
+
+    def accepts(self, k: int) -> tuple[str, ...]:
+        """The object types argument ``k`` may be."""
+        t = self.arg_types[k]
+        return (t,) if isinstance(t, str) else tuple(t)
 
 
 FeatureMap = Callable[[ObjectState, str], Sequence[float]]
@@ -142,7 +148,7 @@ class ObjectCentricSim:
         out = []
         for prim in self.SPEC.primitives:
             for args in permutations(self.objects, prim.arity):
-                if all(self._state().types[a] == t for a, t in zip(args, prim.arg_types)):
+                if all(self._state().types[a] in prim.accepts(k) for k, a in enumerate(args)):
                     out.append(Atom(prim.name, args))
         return out
 
