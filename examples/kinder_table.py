@@ -6,7 +6,8 @@ and skipped when the command runs again):
 
     python examples/kinder_table.py symbols  --task b1 --seeds 5 --out results/kinder
     python examples/kinder_table.py planning --task b1 --seeds 5 --episodes 50 --out results/kinder
-    python examples/kinder_table.py table --out results/kinder      # docs/kinder.md's tables + PNG
+    python examples/kinder_table.py table --out results/kinder      # docs/kinder.md's table
+    python examples/kinder_table.py picture --task b1 --out results/kinder   # a solved episode, PNG
 
 ``symbols``: per seed, ``--traces`` x ``--length`` random primitives (500 transitions by default,
 the issue's bound), ``groundsym learn``, and each relation the task is written in matched to its
@@ -46,6 +47,7 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
 }
 BUDGET = 3000            # KinDER's environment steps per episode
 MAX_DECISIONS = 60       # primitives per episode at most (a skill takes 10 to 150 steps)
+SAMPLES = 200            # PRADA's sampled action sequences per decision (its default horizon, 4)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the issue's table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
     "b3": {"bilevel planning": 0.30, "diffusion policy": 0.32, "PPO": 0.00, "LLM planning": 0.01},
@@ -91,22 +93,27 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
 
 # ----------------------------------------------------------------------------- planning
 
-def run_episode(sim, planner, abstract, seed: int) -> dict:
-    """PRADA replanning after every primitive until solved, the step budget or MAX_DECISIONS."""
+def run_episode(sim, planner, abstract, seed: int, frames: list | None = None) -> dict:
+    """PRADA replanning after every primitive until solved, the step budget or MAX_DECISIONS;
+    ``frames`` collects an image of the start and of the scene after every primitive."""
     scene = sim.reset(seed)
     actions = []
+    while frames is not None and not frames:
+        frames.append(sim.env.render())
     while not sim.solved() and sim.env_steps < BUDGET and len(actions) < MAX_DECISIONS:
         obs = Observation(scene.objects, tuple(sim.actions()), abstract(scene), scene, len(actions), 10)
         decision = planner.choose(obs)
         scene = sim.step(decision.action)
         actions.append(str(decision.action))
+        if frames is not None:
+            frames.append(sim.env.render())
         planner.observe(decision.action, Observation(scene.objects, tuple(sim.actions()), abstract(scene),
                                                       scene, len(actions), 10))
     return {"seed": seed, "success": bool(sim.solved() and sim.env_steps <= BUDGET),
             "env_steps": int(sim.env_steps), "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int, samples: int) -> None:
+def plan_seed(task: str, seed: int, out: Path, episodes: int) -> None:
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
@@ -119,7 +126,7 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, samples: int) -> N
         for k, ep_seed in enumerate(episode_seeds(1000 + seed, episodes)):
             if k < len(done):
                 continue
-            planner = make_planner("prada", pm, {"samples": str(samples)}, ep_seed)
+            planner = make_planner("prada", pm, {"samples": str(SAMPLES)}, ep_seed)
             t0 = time.process_time()
             done.append({**run_episode(sim, planner, abstraction(model), ep_seed),
                          "cpu_s": round(time.process_time() - t0, 2)})
@@ -129,7 +136,62 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, samples: int) -> N
     sim.close()
 
 
+def picture(task: str, out: Path) -> Path:
+    """The first solved episode of seed 0 with the learned model, replayed (same seeds, same run)
+    and drawn as a strip: the start, then the scene after each primitive."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cls, opts, *_ = TASKS[task]
+    d = seed_dir(out, task, 0)
+    done = json.loads((d / "episodes-learned.json").read_text())["episodes"]
+    k, ep = next((k, e) for k, e in enumerate(done) if e["success"])
+    sim, model = cls(**opts), load_model(d / "model")
+    planner = make_planner("prada", sim_planning_model(model, sim), {"samples": str(SAMPLES)}, ep["seed"])
+    frames: list = []
+    replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames)
+    assert replay["actions"] == ep["actions"], "the replay differs from the recorded episode"
+    fig, axes = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 2.6))
+    for ax, img, title in zip(np.atleast_1d(axes), frames, ["start", *ep["actions"]]):
+        ax.imshow(img)
+        ax.set_title(title, fontsize=9)
+        ax.set_axis_off()
+    fig.suptitle(f"{TASKS[task][4]}: PRADA on the learned model, solved in {ep['env_steps']} env steps")
+    path = out / f"{task}-solved.png"
+    fig.savefig(path, dpi=80, bbox_inches="tight")
+    return path
+
+
 # ----------------------------------------------------------------------------- table
+
+def success_rates(out: Path, task: str, arm: str) -> list[bool]:
+    return [e["success"] for p in sorted(out.glob(f"{task}/seed-*/episodes-{arm}.json"))
+            for e in json.loads(p.read_text())["episodes"]]
+
+
+def success_png(out: Path) -> Path:
+    """Bars: PRADA learned, PRADA on the true relations, the published baselines, per task."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = ["PRADA learned", "PRADA true relations", "bilevel planning", "diffusion policy", "PPO", "LLM planning"]
+    tasks = [t for t in TASKS if success_rates(out, t, "learned")]
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    width = 0.8 / len(names)
+    for i, name in enumerate(names):
+        vals = [np.mean(success_rates(out, t, "learned" if i == 0 else "true-relations")) if i < 2
+                else PUBLISHED.get(t, {}).get(name, np.nan) for t in tasks]
+        ax.bar(np.arange(len(tasks)) + i * width, vals, width, label=name)
+    ax.set_xticks(np.arange(len(tasks)) + 0.4 - width / 2, [TASKS[t][4] for t in tasks])
+    ax.set_ylabel("success within 3,000 steps")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.12))
+    path = out / "kinder-success.png"
+    fig.savefig(path, dpi=80, bbox_inches="tight")
+    return path
+
 
 def table(out: Path) -> str:
     lines = ["| task | seeds | F1 per relation (mean over seeds) | PRADA learned | PRADA true relations | published |",
@@ -142,8 +204,8 @@ def table(out: Path) -> str:
         means = {r: np.mean([f[r] for f in f1]) for r in cls.truth_predicates}
         cells = []
         for arm in ("learned", "true-relations"):
-            eps = [e for p in out.glob(f"{task}/seed-*/episodes-{arm}.json") for e in json.loads(p.read_text())["episodes"]]
-            cells.append(f"{np.mean([e['success'] for e in eps]):.2f} ({len(eps)} episodes)" if eps else "-")
+            wins = success_rates(out, task, arm)
+            cells.append(f"{np.mean(wins):.2f} ({len(wins)} episodes)" if wins else "-")
         pub = ", ".join(f"{k} {v:.2f}" for k, v in PUBLISHED.get(task, {}).items()) or "-"
         lines.append(f"| {kid} | {len(f1)} | " + ", ".join(f"{r} {v:.2f}" for r, v in means.items())
                      + f" | {cells[0]} | {cells[1]} | {pub} |")
@@ -152,18 +214,21 @@ def table(out: Path) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("what", choices=("symbols", "planning", "table"))
+    ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
     ap.add_argument("--task", choices=sorted(TASKS), default="b1")
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--traces", type=int, default=50)
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--evals", type=int, default=20000)
     ap.add_argument("--episodes", type=int, default=50)
-    ap.add_argument("--samples", type=int, default=200, help="PRADA's action sequences per decision")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
         print(table(args.out))
+        print(f"wrote {success_png(args.out)}", file=sys.stderr)
+        return 0
+    if args.what == "picture":
+        print(f"wrote {picture(args.task, args.out)}")
         return 0
     for seed in range(args.seeds):
         if args.what == "symbols":
@@ -171,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes, args.samples)
+            plan_seed(args.task, seed, args.out, args.episodes)
     return 0
 
 
