@@ -21,7 +21,7 @@ PAGE = Path(__file__).resolve().parents[1] / "docs" / "byo.md"
 
 
 @pytest.fixture(scope="module")
-def page(tmp_path_factory, capsys_module=None):
+def page(tmp_path_factory):
     """The page's Python blocks, run in order in one namespace, in a temporary folder."""
     import os
 
