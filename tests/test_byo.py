@@ -131,3 +131,13 @@ def test_declared_primitives_are_checked_against_the_actions():
 
     with pytest.raises(UserError, match=r"episodes\[0\].actions\[1\]: unknown name 'putOn'"):
         dataset_from_arrays([_episode()], ["x", "z"], primitives={"pick": 1}, source="log.npz")
+
+
+def test_the_adapter_refuses_unknown_primitives_and_objects(page):
+    sim = page["RailSim"]()
+    sim.reset(seed=1)
+    with pytest.raises(ValueError, match="unknown primitive"):
+        sim.step(Atom("push", ("box0",)))
+    with pytest.raises(ValueError, match="names an object not in the scene"):
+        sim.step(Atom("pick", ("gripper",)))
+    assert sim.env_steps == 0
