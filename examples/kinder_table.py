@@ -46,7 +46,8 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "o3": (ObstructionSim, {"obstructions": 3}, 2, 1, "Obstruction2D-o3"),
 }
 BUDGET = 3000            # KinDER's environment steps per episode
-MAX_DECISIONS = 60       # primitives per episode at most (a skill takes 10 to 150 steps)
+MAX_DECISIONS = 60       # primitives per episode at most, by default (--max-primitives): a planner that
+                         # repeats a primitive that does nothing would otherwise never spend its budget
 SAMPLES = 200            # PRADA's sampled action sequences per decision (its default horizon, 4)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the issue's table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
@@ -93,14 +94,15 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
 
 # ----------------------------------------------------------------------------- planning
 
-def run_episode(sim, planner, abstract, seed: int, frames: list | None = None) -> dict:
-    """PRADA replanning after every primitive until solved, the step budget or MAX_DECISIONS;
+def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
+                max_primitives: int = MAX_DECISIONS) -> dict:
+    """PRADA replanning after every primitive until solved, the step budget or ``max_primitives``;
     ``frames`` collects an image of the start and of the scene after every primitive."""
     scene = sim.reset(seed)
     actions = []
     while frames is not None and not frames:
         frames.append(sim.env.render())
-    while not sim.solved() and sim.env_steps < BUDGET and len(actions) < MAX_DECISIONS:
+    while not sim.solved() and sim.env_steps < BUDGET and len(actions) < max_primitives:
         obs = Observation(scene.objects, tuple(sim.actions()), abstract(scene), scene, len(actions), 10)
         decision = planner.choose(obs)
         scene = sim.step(decision.action)
@@ -113,7 +115,7 @@ def run_episode(sim, planner, abstract, seed: int, frames: list | None = None) -
             "env_steps": int(sim.env_steps), "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int) -> None:
+def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int) -> None:
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
@@ -121,16 +123,21 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int) -> None:
             "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth))}
     for arm, (model, abstraction) in arms.items():
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
-        done = json.loads(path.read_text())["episodes"] if path.exists() else []
+        old = json.loads(path.read_text()) if path.exists() else {"episodes": []}
+        if old.get("max_primitives", MAX_DECISIONS) != max_primitives:
+            raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives', MAX_DECISIONS)}; "
+                             f"use that, or another --out")
+        done = old["episodes"]
         pm = sim_planning_model(model, sim)
         for k, ep_seed in enumerate(episode_seeds(1000 + seed, episodes)):
             if k < len(done):
                 continue
             planner = make_planner("prada", pm, {"samples": str(SAMPLES)}, ep_seed)
             t0 = time.process_time()
-            done.append({**run_episode(sim, planner, abstraction(model), ep_seed),
+            done.append({**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
                          "cpu_s": round(time.process_time() - t0, 2)})
-            atomic_write_json(path, {"task": task, "seed": seed, "arm": arm, "episodes": done})
+            atomic_write_json(path, {"task": task, "seed": seed, "arm": arm, "max_primitives": max_primitives,
+                                     "episodes": done})
             print(f"{task} seed {seed} {arm} episode {k}: {'solved' if done[-1]['success'] else 'not solved'} "
                   f"in {done[-1]['env_steps']} steps", file=sys.stderr)
     sim.close()
@@ -221,6 +228,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--evals", type=int, default=20000)
     ap.add_argument("--episodes", type=int, default=50)
+    ap.add_argument("--max-primitives", type=int, default=MAX_DECISIONS,
+                    help="primitives per episode at most (the budget of 3,000 env steps holds too)")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
@@ -236,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes)
+            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives)
     return 0
 
 
