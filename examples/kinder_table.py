@@ -123,7 +123,7 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: in
             "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth))}
     for arm, (model, abstraction) in arms.items():
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
-        old = json.loads(path.read_text()) if path.exists() else {"episodes": []}
+        old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
         if old.get("max_primitives", MAX_DECISIONS) != max_primitives:
             raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives', MAX_DECISIONS)}; "
                              f"use that, or another --out")
