@@ -17,6 +17,12 @@ With ``--camera`` the same traces also run in the cell seen through its depth ca
 primitive with the camera against one without is printed (the limit is 1.5x)::
 
     python benchmarks/bench_sim.py --traces 3 --rounds 2 --camera
+
+With ``--cells`` the same traces also run in other cells of this code (``;``-separated option
+sets, e.g. the larger cells of ``workspace=wide``, docs/tower.md), alternating rounds with the
+default cell, and each one's cost of a primitive against the default cell's is printed::
+
+    python benchmarks/bench_sim.py --traces 2 --rounds 2 --cells "cubes=14 workspace=wide;cubes=20 workspace=wide"
 """
 
 from __future__ import annotations
@@ -35,9 +41,9 @@ TARGET = 10.0
 CAMERA = "this code, depth camera on"
 
 
-def measure(root: Path, traces: int, length: int, camera: bool = False) -> dict[str, float]:
-    """Random traces on the code under ``root`` (imported from there), timed on this process's CPU
-    (with ``camera``, in the cell seen through its depth camera: ``features=pointcloud``)."""
+def measure(root: Path, traces: int, length: int, options: dict[str, str] | None = None) -> dict[str, float]:
+    """Random traces on the code under ``root`` (imported from there), timed on this process's CPU,
+    in the cell made with ``options`` (the default cell when None)."""
     sys.path.insert(0, str(root))
     from groundsym.collect import trace_seeds
     from sims.tower import TowerSim
@@ -47,7 +53,7 @@ def measure(root: Path, traces: int, length: int, camera: bool = False) -> dict[
     clock = [0.0]                      # CPU time inside the world's physics steps, running total
     physics = 0.0                      # ... of it, during primitives
     digest = hashlib.sha256()
-    with TowerSim(**({"features": "pointcloud"} if camera else {})) as sim:
+    with TowerSim(**(options or {})) as sim:
         # every physics step goes through the scene's step (sims/tower_scene.py); a checkout from
         # before the world was split into a scene and the parts above it (--against) steps its world
         physics_world = getattr(sim.world, "scene", sim.world)
@@ -84,10 +90,10 @@ def scene_bytes(scene) -> bytes:
     return scene.features.tobytes() + repr(scene.reward).encode() + truth.encode()
 
 
-def run_child(root: Path, traces: int, length: int, camera: bool = False) -> dict[str, float]:
+def run_child(root: Path, traces: int, length: int, options: dict[str, str] | None = None) -> dict[str, float]:
     """One measurement in a fresh process pinned to one core (imports must not mix two trees)."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(root), "--traces", str(traces),
-           "--length", str(length)] + (["--camera"] if camera else [])
+           "--length", str(length), "--child-options", json.dumps(options or {})]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=str(root)).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -110,12 +116,24 @@ def main() -> int:
     ap.add_argument("--against", type=Path, default=None, metavar="DIR", help="also measure the code in DIR")
     ap.add_argument("--camera", action="store_true", help="also this code with the depth camera on "
                     "(features=pointcloud, docs/perception.md), alternating, and the cost ratio")
+    ap.add_argument("--cells", default="", metavar="OPTS;OPTS", help="also this code in these cells (option sets "
+                    "separated by ';', e.g. \"cubes=20 workspace=wide\"), alternating, and the cost ratios")
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--child-options", default="{}", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    sys.path.insert(0, str(HERE))
+    from groundsym.errors import UserError
+    from groundsym.options import split_key_values
+
+    try:
+        cells = {c.strip(): split_key_values([c], "--cells") for c in args.cells.split(";") if c.strip()}
+    except UserError as exc:
+        print(f"bench_sim: {exc}", file=sys.stderr)
+        return 2
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     if args.child:
-        print(json.dumps(measure(args.child, args.traces, args.length, args.camera)))
+        print(json.dumps(measure(args.child, args.traces, args.length, json.loads(args.child_options))))
         return 0
     versions = {"this code": HERE}
     if args.against:
@@ -125,8 +143,13 @@ def main() -> int:
         for label, root in versions.items():
             runs[label].append(run_child(root, args.traces, args.length))
         if args.camera:
-            runs.setdefault(CAMERA, []).append(run_child(HERE, args.traces, args.length, camera=True))
+            runs.setdefault(CAMERA, []).append(run_child(HERE, args.traces, args.length, {"features": "pointcloud"}))
+        for label, options in cells.items():
+            runs.setdefault(f"this code, {label}", []).append(run_child(HERE, args.traces, args.length, options))
     rates = {label: summary(label, r) for label, r in runs.items()}
+    for label in cells:
+        print(f"a primitive in the cell {label} costs {rates['this code'] / rates[f'this code, {label}']:.2f}x "
+              f"one in the default cell")
     if args.camera:
         print(f"a primitive with the depth camera costs {rates['this code'] / rates[CAMERA]:.2f}x one without "
               f"(limit 1.5x)")

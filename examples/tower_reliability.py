@@ -15,6 +15,7 @@ For each noise level (standard deviation per axis of the offset added to a primi
 
     python examples/tower_reliability.py --attempts 200 --episodes 30 --random-traces 100 --out results/reliability
     python examples/tower_reliability.py --plot results/reliability      # table and PNG again
+    python examples/tower_reliability.py --levels 7.5 --sim-opt "cubes=20 workspace=wide" --out results/r20
 
 Writes ``reliability.json`` (after each level, so an interrupted run keeps what it measured),
 prints a Markdown table and draws ``reliability.png``.
@@ -33,8 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.collect import trace_seeds  # noqa: E402
+from groundsym.errors import UserError  # noqa: E402
 from groundsym.fileio import atomic_write_bytes, atomic_write_json, read_json  # noqa: E402
 from groundsym.logic import Atom  # noqa: E402
+from groundsym.options import split_key_values  # noqa: E402
 from sims.tower import TowerSim, optimal_episode_value  # noqa: E402
 from tower_ceiling import episode  # noqa: E402
 
@@ -157,6 +160,8 @@ def main() -> int:
     ap.add_argument("--levels", default=",".join(f"{x:g}" for x in LEVELS_MM), help="noise levels in mm")
     ap.add_argument("--random-traces", type=int, default=0, metavar="N",
                     help="also N random traces of 10 primitives at the default noise (settling, clearance)")
+    ap.add_argument("--sim-opt", action="append", default=[], metavar="KEY=VALUE",
+                    help="cell options besides the noise (e.g. \"cubes=20 workspace=wide\", docs/tower.md)")
     ap.add_argument("--out", type=Path, default=Path("results/reliability"))
     ap.add_argument("--plot", type=Path, default=None, metavar="DIR", help="only redraw from DIR/reliability.json")
     args = ap.parse_args()
@@ -165,10 +170,16 @@ def main() -> int:
         print(table(doc["levels"]), end="")
         plot(doc["levels"], args.plot / "reliability.png")
         return 0
-    best = optimal_episode_value({})
-    doc: dict[str, Any] = {"levels": [], "optimum": best}
+    try:
+        given = split_key_values(args.sim_opt, "--sim-opt")
+        given.pop("noise", None)                              # the levels set it
+        best = optimal_episode_value(given)                   # checks the options before any physics
+    except UserError as exc:
+        print(f"tower_reliability: {exc}", file=sys.stderr)
+        return 2
+    doc: dict[str, Any] = {"levels": [], "optimum": best, "sim_options": given}
     for level in (float(x) / 1000 for x in args.levels.split(",") if x.strip()):
-        with TowerSim(noise=level) as sim:
+        with TowerSim(**given, noise=level) as sim:
             row: dict[str, Any] = {"noise": level, "pick_and_place": pick_and_place(sim, args.attempts)}
             if args.episodes:
                 row["builder"] = builder(sim, args.episodes, best)
@@ -176,7 +187,7 @@ def main() -> int:
         atomic_write_json(args.out / "reliability.json", doc)
         print(f"noise {level * 1000:g} mm done", file=sys.stderr, flush=True)
     if args.random_traces:
-        with TowerSim() as sim:
+        with TowerSim(**given) as sim:
             doc["random_traces"] = random_traces(sim, args.random_traces)
         atomic_write_json(args.out / "reliability.json", doc)
         print(f"random traces at noise {sim.options['noise']}: {doc['random_traces']}")

@@ -26,16 +26,19 @@ from .logic import Atom, Literal, is_variable, parse_literal
 from .modeldir import SYMBOLS, Model
 from .ppddl.ast import (And, AndEffect, Domain, Effect, ForallEffect, Not, Problem, RewardEffect, Typed, When,
                         number)
+from .ppddl.axioms import inline
 from .ppddl.compare import context_key, rules_close
 from .ppddl.determinize import determinize
 from .ppddl.from_rules import RulesWriter
+from .ppddl.operators import deepest_type, operator_domain
 from .ppddl.parser import parse_domain, parse_problem
 from .ppddl.requirements import requirements
 from .ppddl.rule_actions import rule_action_names
 from .ppddl.strips import relaxed_reachable, to_strips
 from .ppddl.to_rules import action_to_rule, domain_to_rules
 from .reward import Feature
-from .symbolic_traces import symbolic_traces_from_doc
+from .rules.model import drop_noise
+from .symbolic_traces import object_types, symbolic_traces_from_doc
 from .symbols import dataset_arrays
 from .traces import read_traces
 
@@ -47,12 +50,16 @@ class ExportOptions:
     """What to export besides the model: the scene of the problem (``FILE:TRACE:STEP``; None: the
     first state of the model's first training trace), its goal (literals as text; None: the
     highest-reward abstract state in the data), the noise mode
-    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`) and the domain's name."""
+    (:data:`groundsym.ppddl.rule_actions.NOISE_MODES`, or ``drop``), the domain's name, whether
+    derived predicates are declared once as axioms (:mod:`groundsym.ppddl.axioms`) or written out,
+    and whether to write one typed operator per action (:mod:`groundsym.ppddl.operators`)."""
 
     scene: str | None = None
     goal: str | None = None
     noise: str = "no-change"
     name: str = "learned"
+    axioms: bool = False            # derived predicates as (:derived ...) axioms, declared once
+    operators: bool = False
 
 
 @dataclass(frozen=True)
@@ -65,6 +72,7 @@ class Export:
     objects: tuple[str, ...]
     goal: tuple[Literal, ...]
     goal_note: str
+    reward: Effect | None = None       # the state reward every action carries (RDDL writes it once)
 
 
 def build_export(model: Model, options: ExportOptions = ExportOptions(), where: str | Path | None = None) -> Export:
@@ -87,7 +95,12 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
     else:
         goal, goal_note = derived_goal(model, objects)
     reward = reward_effect(model)
-    writer = RulesWriter(model.rules, options.noise, DECIMALS, simple=True, drop_no_change=reward is None)
+    if options.noise == "drop":          # conditioned on "no noise" (docs/ppddl.md, Determinisation)
+        model, options = replace(model, rules=drop_noise(model.rules)), replace(options, noise="no-change")
+    if options.operators:
+        return _operator_export(model, options, predicates, (objects, state, source), (goal, goal_note))
+    writer = RulesWriter(model.rules, options.noise, DECIMALS, simple=True, drop_no_change=reward is None,
+                         axioms=options.axioms)
     domain, dropped = writer.domain(predicates, options.name, predicate_comments(model), "")
     header = ["learned NID rules as PPDDL (groundsym export-domain): one action per rule",
               f"probabilities rounded to {DECIMALS} decimals; the mass an outcome list leaves unassigned is "
@@ -102,7 +115,28 @@ def build_export(model: Model, options: ExportOptions = ExportOptions(), where: 
                       None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
                       comment=f"initial state: {source}\n{goal_note}")
     _check_round_trip(model, domain, problem, dropped)
-    return Export(domain, problem, dropped, objects, tuple(goal), goal_note)
+    return Export(domain, problem, dropped, objects, tuple(goal), goal_note, reward)
+
+
+def _operator_export(model: Model, options: ExportOptions, predicates: dict[str, int], scene: tuple,
+                     goal_of: tuple) -> Export:
+    """``--operators``: one typed operator per action (:mod:`groundsym.ppddl.operators`); the
+    problem's objects typed by their type atoms, which leave the initial state. No reward effects:
+    the task is the goal, as in the planning benchmarks this form is for (docs/amlgym.md)."""
+    (objects, state, source), (goal, goal_note) = scene, goal_of
+    sds = model.symbolic_traces
+    types = object_types(sds, model.path / "symbolic-traces.json") if sds is not None else {}
+    domain = operator_domain(model.rules, predicates, name=options.name, types=types, noise=options.noise,
+                             decimals=DECIMALS)
+    kinds = {o: [a.predicate for a in state if a.arity == 1 and a.args[0] == o and a.predicate in types]
+             for o in objects}
+    problem = Problem("scene", domain.name, tuple(Typed(o, deepest_type(kinds[o], types)) for o in objects),
+                      tuple(sorted(a for a in state if a.predicate not in types)),
+                      (And(tuple(l.atom if l.positive else Not(l.atom) for l in goal)) if goal else None),
+                      None, ("maximize", "reward") if ":rewards" in domain.requirements else None,
+                      comment=f"initial state: {source}\n{goal_note}")
+    parse_problem(str(problem), parse_domain(str(domain), "<exported domain>"), "<exported problem>")
+    return Export(domain, problem, (), objects, tuple(goal), goal_note)
 
 
 # ------------------------------------------------------------------------------ predicate comments
@@ -251,16 +285,35 @@ REWARD_DROP = 1e-3          # terms smaller than this share of the largest are l
 
 @dataclass(frozen=True)
 class RewardTerms:
-    """The reward model as exported: rounded, with the negligible terms left out."""
+    """The reward model as exported: rounded, with the negligible terms left out; ``constant``:
+    the one reward of every training state, when they are all equal (then nothing is exported)."""
 
     intercept: Fraction
     terms: tuple[tuple[Feature, Fraction], ...]
     dropped: int
+    constant: float | None = None
+
+
+def constant_training_reward(model: Model) -> float | None:
+    """The reward every state of the training data has, when they are all equal (a domain
+    without rewards); None when they differ or the model has no symbolic traces."""
+    sds = model.symbolic_traces
+    rewards = [] if sds is None else [r for tr in sds.traces for r in
+                                      [*tr.rewards, *([tr.final_reward] if tr.final_reward is not None else [])]]
+    if not rewards or max(rewards) - min(rewards) > 1e-12 * max(1.0, abs(max(rewards))):
+        return None
+    return rewards[0]
 
 
 def reward_terms(model: Model) -> RewardTerms:
-    """The model's reward as the export states it (:data:`REWARD_DIGITS`, :data:`REWARD_DROP`)."""
+    """The model's reward as the export states it (:data:`REWARD_DIGITS`, :data:`REWARD_DROP`);
+    nothing where the training rewards are all equal: a fit to one value has only terms of
+    rounding noise (REWARD_DROP is relative to the largest term, so all-tiny terms would survive)."""
     rm = model.reward
+    constant = constant_training_reward(model)
+    if constant is not None:
+        nonzero = sum(1 for x in (rm.intercept, *rm.weights) if x != 0)
+        return RewardTerms(Fraction(0), (), nonzero, constant)
     big = max([abs(rm.intercept), *(abs(w) for w in rm.weights)], default=0.0)
 
     def kept(x: float) -> bool:
@@ -295,8 +348,11 @@ _GROUPS = {1: "object", 2: "pair", 3: "triple"}
 def reward_words(model: Model) -> list[str]:
     """The reward model once, in words, for the domain's header comment."""
     rt = reward_terms(model)
-    if rt.intercept == 0 and not rt.terms:
+    if rt.intercept == 0 and not rt.terms and not rt.dropped:
         return ["reward: none (the model has no reward terms)"]
+    if rt.constant is not None:
+        return [f"reward: none (every training state has reward {rt.constant:g}, so no reward tells states apart; "
+                f"the model's {rt.dropped} fitted term(s) left out)"]
     lines = ["reward of a step, read in the state the action is taken in (every action carries it as "
              "reward effects):", f"  r = {number(rt.intercept)}"]
     for f, w in rt.terms:
@@ -356,9 +412,9 @@ def plain_export(domain: Domain, problem: Problem, mode: str, strips: bool,
         warn(f"the {mode} determinisation has no actions (no rule changes anything): "
              "a classical planner can do nothing with it")
     if strips:
-        plain_d, plain_p = to_strips(plain_d, plain_p)
+        plain_d, plain_p = to_strips(inline(plain_d), plain_p)
     if plain_p is not None and plain_p.goal is not None and plain_d.actions:
-        if relaxed_reachable(plain_d, plain_p) is False:
+        if relaxed_reachable(inline(plain_d), plain_p) is False:
             warn("the goal cannot be reached from the initial state even with delete effects and negative "
                  "conditions ignored "
                  f"(relaxed reachability over the {mode} determinisation)")

@@ -34,8 +34,9 @@ from .reward import RewardModel, fit_reward, read_reward, write_reward
 from .rules.evaluate import score_ruleset
 from .rules.io import read_rules, write_rules, write_rules_text
 from .rules.learner import ALPHA, LearnOptions, examples_from_dataset, learn_rules
+from .rules.successful import SuccessOptions, has_failures, learn_from_successes
 from .rules.model import P_MIN, RuleSet
-from .symbolic_traces import SymbolicDataset, read_symbolic_traces, symbolic_traces_doc
+from .symbolic_traces import SymbolicDataset, object_types, read_symbolic_traces, symbolic_traces_doc
 
 RULES, RULES_TXT, REWARD, SYMBOLIC = "rules.json", "rules.txt", "reward.json", "symbolic-traces.json"
 SYMBOLS, TRACES = "symbols.json", "traces.json"
@@ -58,13 +59,21 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     data_sha = hashlib.sha256(dumps_json(data_doc, indent=None).encode()).hexdigest()
     opts = LearnOptions(alpha=ALPHA if alpha is None else alpha, p_min=P_MIN if p_min is None else p_min)
     prov = provenance(argv, seed=seed, data_sha256=data_sha)
-    rs, report = learn_rules(examples_from_dataset(sds), sds.predicates, opts, seed=seed, progress=progress)
+    examples = examples_from_dataset(sds)
+    extra: dict[str, Any] = {}
+    if has_failures(examples):
+        rs, report = learn_rules(examples, sds.predicates, opts, seed=seed, progress=progress)
+    else:       # plans, demonstrations: no failure to learn contexts from (docs/rules.md, Successful-only traces)
+        rs, report = learn_from_successes(examples, sds.predicates, tuple(object_types(sds)),
+                                          SuccessOptions(alpha=opts.alpha, p_min=opts.p_min), seed=seed)
+        extra = {"mode": "successful-only",
+                 "threshold": next(iter(report.per_action.values()), {}).get("threshold", 1.0)}
     covers = score_ruleset(rs, sds).covers
     reward = fit_reward(sds, seed=seed)
     options = {"alpha": opts.alpha, "p_min": opts.p_min, "p_min_default": opts.p_min_default,
                "default_clip": list(opts.default_clip), "nochange_prior": opts.nochange_prior,
                "score": report.score,
-               "transitions": sds.n_transitions}
+               "transitions": sds.n_transitions, **extra}
     data_doc["meta"] = {**data_doc.get("meta", {}), "provenance": prov}
     atomic_write_json(out_dir / SYMBOLIC, data_doc, indent=None)
     write_rules(out_dir / RULES, rs, predicates=sds.predicates, primitives=sds.primitives, covers=covers,

@@ -25,6 +25,7 @@ BUILTIN_SIMS = {
 }
 BUILTIN_PLANNERS = {
     "prada": "planners.prada:PradaPlanner",
+    "jaxplan": "planners.jaxplan:JaxPlanPlanner",
     "random": "planners.random:RandomPlanner",
     "symbolic-nn": "planners.nn:SymbolicNNPlanner",
     "continuous-nn": "planners.nn:ContinuousNNPlanner",

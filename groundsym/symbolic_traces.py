@@ -61,6 +61,21 @@ class SymbolicDataset:
             yield from tr.transitions()
 
 
+def object_types(ds: SymbolicDataset, where: str | Path = "symbolic traces") -> dict[str, str | None]:
+    """The dataset's object types, ``meta.types``: type predicate -> parent type (null: a root
+    type). A type is a unary predicate whose atoms are static (``(block b1)``); declaring it lets
+    learning treat it as a type (docs/amlgym.md). Empty when the file declares none."""
+    types = ds.meta.get("types", {})
+    if not isinstance(types, dict):
+        raise UserError(f"{where}: meta.types: expected an object of type -> parent type (or null)")
+    for t, parent in types.items():
+        if ds.predicates.get(t) != 1:
+            raise UserError(f"{where}: meta.types: {t!r} is not a declared unary predicate")
+        if parent is not None and parent not in types:
+            raise UserError(f"{where}: meta.types: parent {parent!r} of {t!r} is not a declared type")
+    return dict(types)
+
+
 def symbolic_traces_doc(ds: SymbolicDataset) -> dict[str, Any]:
     traces = []
     for tr in ds.traces:
@@ -115,7 +130,9 @@ def symbolic_traces_from_doc(doc: Any, path: str | Path = "<symbolic traces>") -
         final_reward = r.number(fr, f"{f}.final_reward") if fr is not None else None
         traces.append(SymbolicTrace(tuple(objs), states, actions, rewards, final_reward))
     meta = doc.get("meta", {})
-    return SymbolicDataset(traces, preds, prims, meta if isinstance(meta, dict) else {})
+    ds = SymbolicDataset(traces, preds, prims, meta if isinstance(meta, dict) else {})
+    object_types(ds, path)              # a bad type declaration is reported before any work
+    return ds
 
 
 def read_symbolic_traces(path: str | Path) -> SymbolicDataset:

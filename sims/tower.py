@@ -32,6 +32,7 @@ from groundsym.world import Scene
 from .camera_picture import write_camera_png
 from .tower_camera import DepthCamera, Frame
 from .tower_kinematics import pb
+from .tower_layout import DEFAULT_WORKSPACE, WORKSPACES, Workspace
 from .tower_scene import LEFT_FINGER, RIGHT_FINGER
 from .tower_world import TowerWorld
 
@@ -39,9 +40,6 @@ ARM_URDF = "franka_panda/panda.urdf"   # the arm TowerWorld loads (the camera re
 
 GAMMA = 0.8
 EPISODE_LENGTH = 10
-REGION_X = (0.35, 0.65)            # where start positions are drawn (reachable, in front of the arm)
-REGION_Y = (-0.27, 0.27)
-MIN_GAP = 0.13                     # minimal distance between start centres: room for the open hand
 ON_TABLE_TOL = 0.002               # a lowest point under 2 mm counts as lying on the table (contact slop)
 CONTACT_UP = 0.7                   # a contact whose normal has z above this is "resting on"
 CAMERA_STREAM = 0x63616d           # second word of the camera's seed: [reset seed, this]
@@ -58,6 +56,9 @@ OPTIONS: tuple[Option, ...] = (
     Option("big_size", float, 0.05, "edge of a big cube (m)"),
     Option("ball_size", float, 0.045, "diameter of a ball (m)"),
     Option("can_size", float, 0.042, "diameter and height of a can (m)", recorded_at_default=False),
+    Option("workspace", str, DEFAULT_WORKSPACE, "where the objects start: table (the paper's cell, at most 10 "
+           "objects) or wide (a wider table, start positions over the arm's reachable half-ring, at most 20 objects; "
+           "docs/tower.md, Workspaces)", recorded_at_default=False),
     Option("features", str, "pose", "what the learner sees of each object: pose (x, y, z, size from the simulator) "
            "or pointcloud (mean and shape of the object's points seen by the depth camera, docs/perception.md)",
            recorded_at_default=False),
@@ -89,9 +90,14 @@ def _check(opts: dict[str, Any]) -> None:
             raise bad(key, "must be at least 0")
     if opts["cubes"] + opts["balls"] + opts["cans"] < 1:
         raise bad("cubes", "the cell needs at least one object")
-    if opts["cubes"] + opts["balls"] + opts["cans"] > 10:     # named: the largest count, the likely typo
+    if opts["workspace"] not in WORKSPACES:
+        raise bad("workspace", f"unknown workspace (known: {', '.join(WORKSPACES)})")
+    room = WORKSPACES[opts["workspace"]].max_objects
+    if opts["cubes"] + opts["balls"] + opts["cans"] > room:     # named: the largest count, the likely typo
+        more = "" if room == max(w.max_objects for w in WORKSPACES.values()) else ", workspace=wide holds 20"
         raise bad(max(("cubes", "balls", "cans"), key=lambda k: opts[k]),
-                  "at most 10 objects (cubes + balls + cans) fit on the table with room for the hand")
+                  f"at most {room} objects (cubes + balls + cans) fit on the {opts['workspace']} workspace "
+                  f"with room for the hand{more}")
     if opts["big"] > opts["cubes"]:
         raise bad("big", f"more big cubes than cubes ({opts['cubes']})")
     if not 0.0 <= opts["noise"] <= 0.05:
@@ -111,6 +117,8 @@ def _check(opts: dict[str, Any]) -> None:
         raise bad("depth_noise", "expected a standard deviation between 0 and 0.05 m (at 1 m depth)")
     if not 0.0 <= opts["depth_dropout"] < 1.0:
         raise bad("depth_dropout", "expected a probability in [0, 1)")
+    if opts["features"] == "pointcloud" and opts["workspace"] != DEFAULT_WORKSPACE:
+        raise bad("workspace", "the depth camera frames the default table only (features=pointcloud)")
     if opts["features"] == "pose":
         for key in ("depth_noise", "depth_dropout"):
             if opts[key]:
@@ -126,7 +134,8 @@ class TowerSim:
     CELL_VERSION: ClassVar[int] = 2
     feature_names = POSE_FEATURES                 # an instance's own: see features_for
     primitives = {"closeHandAround": 1, "openHandOver": 1}
-    truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1}
+    truth_predicates = {"inhand": 1, "on": 2, "above": 2, "ontable": 1, "clear": 1, "ball": 1, "big": 1,
+                        "small": 1, "bigger": 2}
     episode_length = EPISODE_LENGTH
     gamma = GAMMA
 
@@ -135,7 +144,8 @@ class TowerSim:
         self.options = recorded_options(OPTIONS, opts)       # what traces record (see Option.recorded_at_default)
         self.resolved = opts                                 # every option, defaults filled in
         self.objects = tuple(f"o{i + 1}" for i in range(opts["cubes"] + opts["balls"] + opts["cans"]))
-        self.world = TowerWorld()
+        self.workspace: Workspace = WORKSPACES[opts["workspace"]]
+        self.world = TowerWorld(self.workspace.table_half, self.workspace.table_centre)
         self.rng = np.random.default_rng(0)
         self.kinds: list[tuple[str, float]] = []
         self.feature_names = self.features_for(opts)
@@ -166,7 +176,7 @@ class TowerSim:
         kinds = ([("cube", o["big_size"])] * o["big"] + [("cube", o["small_size"])] * (o["cubes"] - o["big"])
                  + [("ball", o["ball_size"])] * o["balls"] + [("can", o["can_size"])] * o["cans"])
         self.kinds = [kinds[i] for i in self.rng.permutation(len(kinds))]
-        xy = sample_positions(self.rng, len(self.kinds))
+        xy = self.workspace.sample_positions(self.rng, len(self.kinds))
         yaws = self.rng.uniform(-np.pi / 4, np.pi / 4, len(self.kinds))
         self.world.build([(shape, size, x, y, yaw) for (shape, size), (x, y), yaw in zip(self.kinds, xy, yaws)])
         if self.camera is not None:                  # it renders a copy whose arm has coarser looks
@@ -238,7 +248,10 @@ class TowerSim:
         return held
 
     def _truth(self, pos: np.ndarray, held: set[int]) -> frozenset[Atom]:
-        """Ground-truth atoms from the simulator's contacts and poses (evaluation only)."""
+        """Ground-truth atoms from the simulator's contacts and poses (evaluation only). Sizes are
+        named three ways (what a vocabulary that sees cube size could learn and be graded against): ``big(X)``
+        and ``small(X)`` for the cell's two cube sizes, and ``bigger(X,Y)``, X's size (cube edge,
+        ball or can diameter) larger than Y's."""
         w, ids = self.world, self.objects
         atoms: set[Atom] = set()
         on = np.zeros((len(ids), len(ids)), dtype=bool)
@@ -248,6 +261,9 @@ class TowerSim:
                 atoms.add(Atom("ball", (ids[i],)))
             elif size == self.options["big_size"]:
                 atoms.add(Atom("big", (ids[i],)))
+            elif shape == "cube" and size == self.options["small_size"]:
+                atoms.add(Atom("small", (ids[i],)))
+            atoms.update(Atom("bigger", (ids[i], ids[j])) for j, (_, other) in enumerate(self.kinds) if size > other)
             if i in held:
                 atoms.add(Atom("inhand", (ids[i],)))
                 continue
@@ -318,19 +334,6 @@ class TowerSim:
 
 
 # ---------------------------------------------------------------------- helpers
-
-def sample_positions(rng: np.random.Generator, n: int) -> np.ndarray:
-    """``n`` start positions in the reachable region, pairwise at least ``MIN_GAP`` apart."""
-    for _ in range(200):
-        pts: list[np.ndarray] = []
-        for _ in range(400):
-            p = np.array([rng.uniform(*REGION_X), rng.uniform(*REGION_Y)])
-            if all(np.hypot(*(p - q)) >= MIN_GAP for q in pts):
-                pts.append(p)
-                if len(pts) == n:
-                    return np.array(pts)
-    raise RuntimeError(f"could not place {n} objects {MIN_GAP} m apart")  # not reached for n <= 10
-
 
 def lowest_points(pos: np.ndarray, orn: np.ndarray, sizes: np.ndarray, shapes: list[str]) -> np.ndarray:
     """Height of each object's lowest point: a cube's lowest corner, a can's lowest rim point, whatever

@@ -36,7 +36,7 @@ HAND_PARTS = (HAND_LINK, LEFT_FINGER, RIGHT_FINGER)
 FINGER_OPEN = 0.04                 # per finger (pads 7.2 cm apart when open)
 HOME_Q = np.array(HOME_POSE)
 
-TABLE_HALF = (0.45, 0.6, 0.02)     # table top at z = 0
+TABLE_HALF = (0.45, 0.6, 0.02)     # the default table (top at z = 0); sims/tower_layout.py has the others
 TABLE_CENTRE = (0.45, 0.0)
 FLOOR_Z = -0.62                    # the room's floor, out of the arm's reach
 TOUCH_GAP = 0.002                  # m: contact points closer than this touch (penetration or gap)
@@ -58,9 +58,12 @@ class Body:
 
 class TowerScene:
     """A fresh pybullet client; :meth:`reset` and :meth:`place_objects` make the same world from
-    the same placement."""
+    the same placement. The table's top is ``table_half[:2]`` either side of ``table_centre``."""
 
-    def __init__(self) -> None:
+    def __init__(self, table_half: tuple[float, float, float] = TABLE_HALF,
+                 table_centre: tuple[float, float] = TABLE_CENTRE) -> None:
+        self.table_half = table_half
+        self.table_centre = table_centre
         self.client = pb.connect(pb.DIRECT)
         self.bodies: list[Body] = []
         self.robot = -1
@@ -82,10 +85,11 @@ class TowerScene:
                                      physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
-        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=TABLE_HALF, physicsClientId=c)
-        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=TABLE_HALF, rgbaColor=(0.78, 0.66, 0.5, 1),
+        half = self.table_half
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=c)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=(0.78, 0.66, 0.5, 1),
                                    physicsClientId=c)
-        self.table = pb.createMultiBody(0, col, vis, (*TABLE_CENTRE, -TABLE_HALF[2]), physicsClientId=c)
+        self.table = pb.createMultiBody(0, col, vis, (*self.table_centre, -half[2]), physicsClientId=c)
         pb.changeDynamics(self.table, -1, lateralFriction=0.8, physicsClientId=c)
         floor_half = (3.0, 3.0, 0.01)                                        # catches what falls off
         floor = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=floor_half, physicsClientId=c)

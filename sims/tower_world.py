@@ -26,15 +26,16 @@ from .tower_approach import ApproachPlanner
 from .tower_control import ArmController
 from .tower_hand import Hand
 from .tower_kinematics import ArmKinematics
-from .tower_scene import FINGER_OPEN, HOME_Q, Body, TowerScene
+from .tower_scene import FINGER_OPEN, HOME_Q, TABLE_CENTRE, TABLE_HALF, Body, TowerScene
 from .tower_skills import TowerSkills
 
 
 class TowerWorld:
     """A fresh pybullet world; :meth:`build` makes the same world from the same placement."""
 
-    def __init__(self) -> None:
-        self.scene = TowerScene()
+    def __init__(self, table_half: tuple[float, float, float] = TABLE_HALF,
+                 table_centre: tuple[float, float] = TABLE_CENTRE) -> None:
+        self.scene = TowerScene(table_half, table_centre)
         self.kin = ArmKinematics()
         self.hand = Hand(self.scene)
         self.arm = ArmController(self.scene, self.hand, self.kin)

@@ -2,7 +2,8 @@
 
 The export itself is :mod:`groundsym.export` (the report shows the same domain); this command
 parses the arguments, applies ``--rename``, writes the files and says what it wrote. With
-``--determinize`` plain PDDL for classical planners is written too.
+``--determinize`` plain PDDL for classical planners is written too; ``--format rddl|fond`` writes
+the same model as RDDL or FOND PDDL instead (:mod:`groundsym.export_formats`).
 """
 
 from __future__ import annotations
@@ -16,15 +17,19 @@ from typing import Iterator
 
 from ..errors import UserError
 from ..export import ExportOptions, build_export, plain_export
+from ..export_formats import FORMATS, RDDL_FILES, check_format, format_files
 from ..fileio import atomic_write_text
 from ..identifiers import check_identifier
+from ..limits import MAX_STEPS
 from ..modeldir import Model, load_model
 from ..ppddl.determinize import MODES
 from ..ppddl.names import check_renames, parse_renames, write_renamed
 from ..ppddl.rule_actions import NOISE_MODES
+from ._common import Count
 
 NAME = "export-domain"
-HELP = "write a learned model as PPDDL (domain.ppddl, problem.ppddl), optionally determinised PDDL too"
+HELP = ("write a learned model as PPDDL (domain.ppddl, problem.ppddl), optionally determinised PDDL too; "
+        "or as RDDL or FOND PDDL (--format)")
 ORDER = 45
 
 
@@ -37,8 +42,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--goal", metavar="ATOMS",
                    help='goal literals, e.g. "(on o1 o2) (not (inhand o1))" (default: the highest-reward '
                         "abstract state in the data)")
-    p.add_argument("--noise", choices=NOISE_MODES, default="no-change",
-                   help="a rule's noise outcome: no change (default) or pessimistic (a dead end)")
+    p.add_argument("--noise", choices=(*NOISE_MODES, "drop"), default="no-change",
+                   help="a rule's noise outcome: no change (default), pessimistic (a dead end) or drop "
+                        "(outcome probabilities renormalised without it: noisy data, --determinize most-likely)")
+    p.add_argument("--operators", action="store_true",
+                   help="one typed operator per action, with the action's name and parameters (rules learned "
+                        "from successful-only traces: one rule per action, no deictic references)")
+    p.add_argument("--format", choices=FORMATS, default="ppddl",
+                   help="ppddl (default: domain.ppddl, problem.ppddl), rddl (domain.rddl, instance.rddl, for "
+                        "pyRDDLGym and JaxPlan) or fond (domain.pddl, problem.pddl with oneof effects); docs/rddl.md")
+    p.add_argument("--axioms", action="store_true",
+                   help="declare derived predicates once as (:derived ...) axioms instead of writing them out in "
+                        "every precondition (PPDDL and FOND; Fast Downward reads them, docs/rddl.md)")
+    p.add_argument("--horizon", type=Count(1, MAX_STEPS, "steps"),
+                   help="with --format rddl: the instance's horizon (default 40)")
     p.add_argument("--determinize", choices=MODES, help="also write plain domain.pddl and problem.pddl")
     p.add_argument("--strips", action="store_true",
                    help="with --determinize: compile domain.pddl to plain STRIPS (grounded; no negative, "
@@ -75,20 +92,22 @@ def run(args: argparse.Namespace) -> int:
     check_identifier(args.name, "--name")
     if args.strips and not args.determinize:
         raise UserError("--strips: needs --determinize all-outcomes or most-likely")
+    check_format(args.format, args.determinize, args.horizon, args.axioms, args.strips, args.operators)
     with _renamed(load_model(args.model), args.rename) as model:
         return _export(model, args)
 
 
 def _export(model: Model, args: argparse.Namespace) -> int:
     """Build the export, write its files into ``--output`` and say what was written."""
-    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name)
+    options = ExportOptions(scene=args.scene, goal=args.goal, noise=args.noise, name=args.name, axioms=args.axioms,
+                            operators=args.operators)
     ex = build_export(model, options, args.model)
     domain, problem, dropped, objects, goal, goal_note = (ex.domain, ex.problem, ex.dropped, ex.objects, ex.goal,
                                                           ex.goal_note)
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
-    files = {"domain.ppddl": str(domain), "problem.ppddl": str(problem)}
+    files = format_files(ex, args.format, args.horizon, model.rules.derived)
     plain_note = ""
     if args.determinize:
         plain_d, plain_p = plain_export(domain, problem, args.determinize, args.strips,
@@ -99,10 +118,10 @@ def _export(model: Model, args: argparse.Namespace) -> int:
         plain_note = f"; domain.pddl: {len(plain_d.actions)} actions"
     for name, text in files.items():
         atomic_write_text(out / name, text)
-    for stale in ("domain.pddl", "problem.pddl"):   # from an earlier export with --determinize: would mislead
+    for stale in ("domain.pddl", "problem.pddl", *RDDL_FILES):   # from an earlier export: would mislead
         if stale not in files and (out / stale).is_file():
             (out / stale).unlink()
-    if args.determinize and "problem.pddl" not in files:
+    if (args.determinize or args.format == "fond") and "problem.pddl" not in files:
         print(f"{out}: problem.pddl not written: {goal_note}", file=sys.stderr)
     left = f", {len(dropped)} rule(s) that can never apply or change nothing left out" if dropped else ""
     print(f"{out}: wrote {', '.join(files)} ({len(domain.actions)} actions{left}{plain_note}; "

@@ -12,9 +12,11 @@ import sys
 from pathlib import Path
 
 from ..errors import UserError
+from ..rules.calibration import calibration, write_reliability_png
 from ..rules.evaluate import ScoreReport, score_dataset, score_ruleset
 from ..rules.model import P_MIN
 from ..symbolic_traces import SymbolicDataset, read_symbolic_traces, require_transitions
+from ._common import writable_output
 
 NAME = "score"
 HELP = "mean log-likelihood per transition of symbolic traces under a model directory or PPDDL domain"
@@ -25,14 +27,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("model", help="a model directory (rules.json) or a PPDDL domain file")
     p.add_argument("data", help="symbolic traces (groundsym.symbolic-traces/1)")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.add_argument("--reliability", default=None, metavar="PNG",
+                   help="write the reliability diagram of the rules' outcome probabilities (a model directory only)")
 
 
 def run(args: argparse.Namespace) -> int:
     ds = read_symbolic_traces(args.data)
     require_transitions(ds, args.data)
     model = Path(args.model)
+    png = writable_output(args.reliability) if args.reliability else None
+    if png is not None and not model.is_dir():
+        raise UserError(f"{model}: --reliability needs a model directory (its rules' outcome probabilities)")
     if model.is_dir():
-        doc = _score_model_dir(model, ds, args.data)
+        doc = _score_model_dir(model, ds, args.data, png)
     elif model.is_file():
         doc = _score_ppddl(model, ds, args.data)
     else:
@@ -50,7 +57,7 @@ def _report_doc(rep: ScoreReport, model: Path, data: str, p_min: float, rules: l
             "default_covered": rep.default_covered, "rules": rules}
 
 
-def _score_model_dir(model: Path, ds: SymbolicDataset, data: str) -> dict:
+def _score_model_dir(model: Path, ds: SymbolicDataset, data: str, png: Path | None = None) -> dict:
     from ..modeldir import load_model
 
     m = load_model(model)
@@ -58,7 +65,10 @@ def _score_model_dir(model: Path, ds: SymbolicDataset, data: str) -> dict:
     rep = score_ruleset(m.rules, ds)
     rules = [{"rule": i + 1, "action": str(r.action), "context": [str(l) for l in r.context],
               "covers": rep.covers.get(i, 0)} for i, r in enumerate(m.rules.rules)]
-    return _report_doc(rep, model, data, m.rules.p_min, rules)
+    cal = calibration(m.rules, ds)
+    if png is not None:
+        write_reliability_png(png, cal, f"{model.name} on {Path(data).name}")
+    return {**_report_doc(rep, model, data, m.rules.p_min, rules), "calibration": cal.to_doc()}
 
 
 def _score_ppddl(path: Path, ds: SymbolicDataset, data: str) -> dict:
@@ -99,6 +109,11 @@ def _print(doc: dict) -> None:
     print(f"{doc['data']}: mean log-likelihood {doc['mean_log_likelihood']:.4f} nats per transition "
           f"({doc['transitions']} transitions, {doc['impossible']} impossible, priced with p_min {doc['p_min']:g})")
     print(f"  {doc['default_covered']} transitions covered by default rules")
+    cal = doc.get("calibration")
+    if cal is not None:
+        print(f"  expected calibration error {cal['ece']:.4f} (a calibrated model: {cal['floor']:.4f}; "
+              f"{cal['predictions']} outcome predictions, {cal['bins']} bins); noise mass {cal['noise_predicted']:.3f} predicted, "
+              f"{cal['noise_observed']:.3f} of covered transitions unexplained")
     for r in doc["rules"]:
         ctx = " ".join(r.get("context", []))
         print(f"  rule {r['rule']}: {r['action']} {ctx}: covers {r['covers']}")

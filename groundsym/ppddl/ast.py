@@ -134,6 +134,15 @@ class Action:
 
 
 @dataclass(frozen=True)
+class Axiom:
+    """``(:derived (head ?x..) body)``: the head holds exactly when the body does (PDDL 2.2
+    derived predicates, Edelkamp and Hoffmann 2004); a reader may put the body in its place."""
+
+    head: Atom
+    body: "Formula"
+
+
+@dataclass(frozen=True)
 class Domain:
     name: str
     requirements: tuple[str, ...] = ()
@@ -143,6 +152,7 @@ class Domain:
     actions: tuple[Action, ...] = ()
     comment: str = field(default="", compare=False)   # printed, not parsed back
     functions: tuple[Predicate, ...] = ()
+    axioms: tuple[Axiom, ...] = ()
 
     def __post_init__(self) -> None:
         # canonical order, so that equal domains compare equal whatever order a file used
@@ -152,6 +162,7 @@ class Domain:
         _set(self, "predicates", tuple(sorted(self.predicates, key=lambda p: p.name)))
         _set(self, "actions", tuple(sorted(self.actions, key=lambda a: _natural(a.name))))
         _set(self, "functions", tuple(sorted(self.functions, key=lambda p: p.name)))
+        _set(self, "axioms", tuple(sorted(self.axioms, key=lambda x: x.head.predicate)))
 
     def predicate(self, name: str) -> Predicate | None:
         return next((p for p in self.predicates if p.name == name), None)
@@ -303,6 +314,8 @@ def _domain_sexp(d: Domain) -> list:
     out.append(preds)
     if d.functions:
         out.append([":functions", *([f.name, *typed_list(f.params)] for f in sorted(d.functions, key=lambda f: f.name))])
+    for x in d.axioms:
+        out.append([":derived", str(x.head), to_sexp(x.body)])
     for a in d.actions:
         act: list = [":action", a.name, *_comment_lines(a.comment), ":parameters", typed_list(a.parameters)]
         # always written, ``(and)`` when empty: some readers (plado) fail on an action without one

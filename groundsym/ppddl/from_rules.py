@@ -18,11 +18,14 @@ precondition forbids, so a planner avoids noisy rules.
 
 A derived predicate of the rule set (``no-on-1``) is written out over its base predicate as
 ``(not (exists ...))`` and never declared; the writer knows the rule set's derived predicates, as
-unified-planning's ``PDDLWriter`` keeps its renamings on the writer.
+unified-planning's ``PDDLWriter`` keeps its renamings on the writer. With ``axioms`` it is declared
+once instead, ``(:derived (no-on-1 ?x1) (not (exists ...)))`` (PDDL 2.2), and named where used;
+our parser puts the body back in place (:mod:`.axioms`), so both read as the same rules.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from fractions import Fraction
 from typing import Mapping, Sequence
 
@@ -30,8 +33,8 @@ import numpy as np
 
 from ..errors import UserError
 from ..logic import Atom, Literal, is_variable
-from ..rules.model import Rule, RuleSet
-from .ast import (NO_EFFECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall, Formula, Not, Or,
+from ..rules.model import Derived, Rule, RuleSet
+from .ast import (NO_EFFECT, TRUE, Action, And, AndEffect, Axiom, Domain, Effect, Exists, Forall, Formula, Not, Or,
                   Predicate, Probabilistic, Typed)
 from .requirements import requirements
 from .rule_actions import NOISE_MODES, NOISE_PREDICATE, rule_action_name
@@ -69,7 +72,7 @@ class RulesWriter:
     """
 
     def __init__(self, rules: RuleSet, noise: str = "no-change", decimals: int | None = None,
-                 simple: bool = False, drop_no_change: bool = False) -> None:
+                 simple: bool = False, drop_no_change: bool = False, axioms: bool = False) -> None:
         if noise not in NOISE_MODES:
             raise UserError(f"--noise: expected one of {', '.join(NOISE_MODES)}, got {noise!r}")
         self.rules = rules
@@ -79,6 +82,7 @@ class RulesWriter:
         self.drop_no_change = drop_no_change
         self.injective = rules.injective
         self.derived = {d.name: d for d in rules.derived}     # written as (not (exists ...))
+        self.axioms = axioms      # or declared once, (:derived (no-on-1 ?x1) (not (exists ...)))
 
     # -------------------------------------------------------------------------- the domain
     def domain(self, predicates: Mapping[str, int], name: str = "learned",
@@ -97,12 +101,26 @@ class RulesWriter:
                     actions.append(a)
                 else:
                     dropped.append(rule_action_name(prim, k))
-        preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(n)), (comments or {}).get(p, ""))
-                 for p, n in sorted(predicates.items()) if p not in self.derived]     # written out, not declared
+        declared = [p for p in sorted(predicates) if p not in self.derived or self.axioms]
+        preds = [Predicate(p, tuple(Typed(f"?x{i + 1}") for i in range(predicates[p])),
+                           (comments or {}).get(p, "") or self._derived_comment(p)) for p in declared]
         if self.noise == "pessimistic":
             preds.append(Predicate(NOISE_PREDICATE, (), "a rule's noise outcome happened: a dead end"))
-        domain = Domain(name, (), (), (), tuple(preds), tuple(actions), comment)
-        return Domain(name, requirements(domain), (), (), domain.predicates, domain.actions, comment), tuple(dropped)
+        axioms = tuple(self.axiom(self.derived[p]) for p in declared if p in self.derived)
+        domain = Domain(name, (), (), (), tuple(preds), tuple(actions), comment, axioms=axioms)
+        return replace(domain, requirements=requirements(domain)), tuple(dropped)
+
+    def _derived_comment(self, name: str) -> str:
+        d = self.derived.get(name)
+        if d is None:
+            return ""
+        shown = " ".join(f"?x{d.keep.index(i) + 1}" if i in d.keep else "_" for i in range(d.base_arity))
+        return f"derived: no ({d.base}{' ' + shown if shown else ''}) atom holds"
+
+    def axiom(self, d: Derived) -> Axiom:
+        """``(:derived (name ?x1..) <written out>)``: the derived predicate declared once."""
+        head = Atom(d.name, tuple(f"?x{i + 1}" for i in range(d.arity)))
+        return Axiom(head, self._written_out(Literal(head)))
 
     # -------------------------------------------------------------------------- one rule
     def action(self, rule: Rule, k: int, others: Sequence[Rule]) -> Action | None:
@@ -154,7 +172,14 @@ class RulesWriter:
         return (Probabilistic(tuple(branches)) if branches else NO_EFFECT), rest
 
     def literal(self, l: Literal) -> Formula:
-        """A context literal as a formula; a derived predicate written out over its base."""
+        """A context literal as a formula; a derived predicate written out over its base (or, with
+        ``axioms``, left as its atom: the domain declares it)."""
+        if l.atom.predicate in self.derived and not self.axioms:
+            return self._written_out(l)
+        return l.atom if l.positive else Not(l.atom)
+
+    def _written_out(self, l: Literal) -> Formula:
+        """A derived literal over its base predicate."""
         d = self.derived.get(l.atom.predicate)
         if d is not None:        # (no-on-1 ?x) -> (not (exists (?derived-z1) (on ?x ?derived-z1)))
             zs = [f"?derived-z{i + 1}" for i in range(d.base_arity - d.arity)]

@@ -30,9 +30,10 @@ import numpy as np
 from ..errors import UserError
 from ..fileio import read_text
 from ..logic import Atom, Literal
-from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Domain, Effect, Exists, Forall,
+from .ast import (NO_EFFECT, OBJECT, TRUE, Action, And, AndEffect, Axiom, Domain, Effect, Exists, Forall,
                   ForallEffect, Formula, Imply, Not, Or, Predicate, Probabilistic, Problem, RewardEffect,
                   Typed, When)
+from .axioms import inline
 from .reader import NotFast, read
 
 
@@ -269,6 +270,13 @@ def _domain(w: _Walker, tree: lark.Tree) -> Domain:
     functions = tuple(Predicate(str(d.children[0]), w.typed(d.children[1], types))
                       for s in _sections(tree, ["functions"]) for d in s.children)
     scope = _Scope(w, predicates, {c.name: c.type for c in constants}, types)
+    axioms = tuple(_axiom(w, x, scope) for x in _sections(tree, ["derived"]))
+    heads = {x.head.predicate for x in axioms}
+    for node, x in zip(_sections(tree, ["derived"]), axioms):
+        used = heads & set(re.findall(r"\(([^\s()]+)", str(x.body)))
+        if used:
+            raise w.fail(node, f"derived predicate {x.head.predicate!r}: its body uses the derived predicate "
+                               f"{min(used)!r} (only bodies over base predicates are read)")
     actions: list[Action] = []
     seen: set[str] = set()      # a set, not a scan of the list: 100k actions parse in linear time
     for a in _sections(tree, ["action"]):
@@ -276,8 +284,23 @@ def _domain(w: _Walker, tree: lark.Tree) -> Domain:
         if actions[-1].name in seen:
             raise w.fail(a, f"action {actions[-1].name!r} is declared twice")
         seen.add(actions[-1].name)
-    return Domain(name, requirements, tuple(Typed(k, v) for k, v in types.items()), constants,
-                  tuple(predicates.values()), tuple(actions), functions=functions)
+    return inline(Domain(name, requirements, tuple(Typed(k, v) for k, v in types.items()), constants,
+                         tuple(predicates.values()), tuple(actions), functions=functions, axioms=axioms))
+
+
+def _axiom(w: _Walker, tree: lark.Tree, scope: _Scope) -> Axiom:
+    """``(:derived (p ?x..) body)``: ``p`` declared, with those arguments; the body over base
+    predicates (put in place by :func:`.axioms.inline`, so a derived predicate may not use one)."""
+    name = str(tree.children[0])
+    params = w.typed(tree.children[1], scope.types)
+    pred = scope.predicates.get(name)
+    if pred is None:
+        raise w.fail(tree, f"derived predicate {name!r} is not declared in :predicates")
+    if len(pred.params) != len(params):
+        raise w.fail(tree, f"derived predicate {name!r} takes {len(pred.params)} argument(s), the axiom gives "
+                           f"{len(params)}")
+    body = scope.bind(params).formula(tree.children[2])
+    return Axiom(Atom(name, tuple(p.name for p in params)), body)
 
 
 def _action(w: _Walker, tree: lark.Tree, scope: _Scope) -> Action:

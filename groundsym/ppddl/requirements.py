@@ -23,6 +23,10 @@ def requirements(domain: Domain) -> tuple[str, ...]:
             found.add(":typing")
         _formula_features(a.precondition, True, found)
         _effect_features(a.effect, found)
+    if domain.axioms:
+        found.add(":derived-predicates")
+        for x in domain.axioms:
+            _formula_features(x.body, True, found)
     return tuple(sorted(found))
 
 

@@ -243,6 +243,21 @@ class RuleSet:
         return r.likelihood(state, b, succ, self.p_min)
 
 
+def drop_noise(rules: RuleSet) -> RuleSet:
+    """The rule set conditioned on "no noise": each rule's outcome probabilities renormalised over
+    its outcomes, the noise mass gone (``export-domain --noise drop``). Under heavy observation
+    noise the noise outcome can take most of a rule's mass and the most-likely determinisation
+    would drop every effect; here it keeps the most probable real outcome (docs/ppddl.md)."""
+    out = []
+    for r in rules.rules:
+        total = sum(r.probs)
+        if total <= 0 or r.noise <= 0:
+            out.append(r)
+            continue
+        out.append(Rule(r.action, r.context, r.outcomes, tuple(p / total for p in r.probs), 0.0, 0.0))
+    return RuleSet(tuple(out), rules.defaults, rules.p_min, rules.p_min_default, rules.injective, rules.derived)
+
+
 def _bindings(context: tuple[Literal, ...], state: frozenset, base: dict[str, str], injective: bool,
               objects: Iterable[str] | None, limit: int) -> Iterator[dict[str, str]]:
     """Backtracking search: bind variables through positive literals, then check the rest."""

@@ -1,0 +1,193 @@
+"""Random against directed exploration: held-out log-likelihood and PRADA share of V*
+against total transitions, in the tower cell.
+
+For every seed, ``--rounds`` rounds of ``--round-traces`` traces of 10 primitives:
+
+* *random*: ``groundsym collect --traces R*k --seed S`` (its first k traces are directed's round 0);
+* *directed*: ``groundsym collect --traces R*k --seed S --explore counts --rounds R --work DIR``.
+
+After each round j a model is learned on the first (j+1)*k traces of each (symbols with
+``--evals`` loss evaluations, 4 restarts, and NID rules and reward on the same traces, as the
+exploration's own round models; directed's are reused), then scored: mean log-likelihood per
+transition of 30 held-out random traces (seed 999) abstracted with the model's own symbols, and
+PRADA (``retries=1``) from ``--starts`` start states, its episode value as a share of V*.
+
+Everything is kept in ``--out`` (traces, models, one line per scored model in ``curves.jsonl``), so
+the command resumes where it stopped; the table and ``explore-curves.png`` are made from whatever
+is there.
+
+    python examples/explore_curves.py --seeds 0-9 --rounds 5 --round-traces 5 --starts 6 --out results/explore
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from groundsym.collect import collect_traces  # noqa: E402
+from groundsym.episode import SimEnv, run_episode  # noqa: E402
+from groundsym.explore import ExploreConfig, dataset, explore_traces, learn_round  # noqa: E402
+from groundsym.fileio import atomic_write_bytes  # noqa: E402
+from groundsym.modeldir import load_model  # noqa: E402
+from groundsym.planner import PlanningModel, make_planner  # noqa: E402
+from groundsym.registry import make_sim  # noqa: E402
+from groundsym.rules.evaluate import score_ruleset  # noqa: E402
+from groundsym.traces import read_traces, write_traces  # noqa: E402
+from sims.tower import optimal_episode_value  # noqa: E402
+from tower_prada_diagnosis import seed_range  # noqa: E402
+
+LENGTH = 10
+MODES = ("random", "directed")
+
+
+def learn_seed(seed: int, j: int) -> int:
+    """The seed ``groundsym.explore`` learns round j's model with."""
+    return int(np.random.SeedSequence([seed, j]).generate_state(1)[0])
+
+
+def traces_of(sim, mode: str, seed: int, cfg: ExploreConfig, d: Path):
+    path = d / f"{mode}.json"
+    if not path.exists():
+        n = cfg.rounds * cfg.round_traces
+        ds = collect_traces(sim, n, LENGTH, seed, progress=False) if mode == "random" else \
+            explore_traces(sim, cfg, seed, d / "directed-work", progress=False)
+        write_traces(path, ds)
+    return read_traces(path)
+
+
+def model_dir(sim, mode: str, seed: int, j: int, cfg: ExploreConfig, ds, d: Path) -> Path:
+    out = d / f"{mode}-{j}"
+    if (out / "rules.json").exists():
+        return out
+    own = d / "directed-work" / f"round-{j}"
+    if mode == "directed" and (own / "rules.json").exists():
+        shutil.copytree(own, out)
+        return out
+    prefix = dataset(sim, ds.traces[:(j + 1) * cfg.round_traces], {})
+    learn_round(prefix, cfg, learn_seed(seed, j), out)
+    return out
+
+
+def score(sim, mdir: Path, held, starts: list[int], best: float) -> dict:
+    m = load_model(mdir)
+    ll = score_ruleset(m.rules, m.symbols.to_symbolic_dataset(held)).mean_log_likelihood
+    pm = PlanningModel(dict(sim.primitives), predicates=dict(m.symbols.predicates), symbols=m.symbols,
+                       rules=m.rules, reward=m.reward, gamma=float(sim.gamma))
+    shares = []
+    for start in starts:
+        planner = make_planner("prada", pm, {"retries": "1"}, 1000 + start)
+        shares.append(run_episode(SimEnv(sim, m.symbols), planner, sim.episode_length, start, "prada").value / best)
+    return {"heldout_loglik": ll, "shares": shares, "share": float(np.mean(shares)) if shares else None,
+            "symbols": list(m.symbols.predicates)}
+
+
+def summarise(rows: list[dict], out: Path) -> None:
+    print("| transitions | mode | runs | held-out log-lik (mean +- se) | PRADA share of V* (mean +- se) | "
+          "directed - random, same seeds: log-lik, share |")
+    print("|---|---|---|---|---|---|")
+    curves: dict = {}
+    for n in sorted({r["transitions"] for r in rows}):
+        for mode in MODES:
+            mine = [r for r in rows if r["transitions"] == n and r["mode"] == mode]
+            if not mine:
+                continue
+            stats = []
+            for key in ("heldout_loglik", "share"):
+                v = np.array([r[key] for r in mine if r[key] is not None], float)
+                se = v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0.0
+                stats.append((v.mean() if len(v) else np.nan, se))
+                curves.setdefault((mode, key), []).append((n, *stats[-1]))
+            print(f"| {n} | {mode} | {len(mine)} | {stats[0][0]:.4f} +- {stats[0][1]:.4f} | "
+                  f"{stats[1][0]:.1%} +- {stats[1][1]:.1%} | {paired(rows, n) if mode == 'directed' else ''} |")
+    atomic_write_bytes(out / "explore-curves.png", curves_png(curves))
+
+
+def paired(rows: list[dict], n: int) -> str:
+    """Mean and standard error of directed minus random over the seeds that have both at ``n``."""
+    by = {(r["seed"], r["mode"]): r for r in rows if r["transitions"] == n}
+    seeds = [s for s, m in by if m == "directed" and (s, "random") in by]
+    out = []
+    for key, fmt in (("heldout_loglik", "{:+.3f} +- {:.3f}"), ("share", "{:+.1%} +- {:.1%}")):
+        d = np.array([by[(s, "directed")][key] - by[(s, "random")][key] for s in seeds], float)
+        out.append(fmt.format(d.mean(), d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else 0.0) if len(d) else "")
+    return ", ".join(out)
+
+
+def curves_png(curves: dict) -> bytes:
+    import io
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
+    for ax, key, label in zip(axes, ("heldout_loglik", "share"), ("held-out log-likelihood (nats/transition)",
+                                                                   "PRADA share of V*")):
+        for mode, colour in zip(MODES, ("tab:gray", "tab:red")):
+            pts = np.array(curves.get((mode, key), []), float).reshape(-1, 3)
+            if len(pts):
+                ax.errorbar(pts[:, 0], pts[:, 1], yerr=pts[:, 2], marker="o", capsize=3, c=colour, label=mode)
+        ax.set_xlabel("transitions in all")
+        ax.set_ylabel(label)
+        ax.legend()
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", default="0-9")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--round-traces", type=int, default=5)
+    ap.add_argument("--evals", type=int, default=15_000)
+    ap.add_argument("--starts", type=int, default=6)
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args()
+    cfg = ExploreConfig(args.rounds, args.round_traces, LENGTH, evals=args.evals)
+    args.out.mkdir(parents=True, exist_ok=True)
+    sim = make_sim("tower", {})
+    best = optimal_episode_value({})
+    held_path = args.out / "heldout.json"
+    if not held_path.exists():
+        write_traces(held_path, collect_traces(sim, 30, LENGTH, 999, progress=False))
+    held = read_traces(held_path)
+    log = args.out / "curves.jsonl"
+    rows = [json.loads(x) for x in log.read_text().splitlines()] if log.exists() else []
+    done = {(r["seed"], r["mode"], r["round"]) for r in rows}
+    for seed in seed_range(args.seeds):
+        d = args.out / f"seed{seed}"
+        d.mkdir(exist_ok=True)
+        for mode in MODES:
+            ds = traces_of(sim, mode, seed, cfg, d)
+            for j in range(args.rounds):
+                if (seed, mode, j) in done:
+                    continue
+                mdir = model_dir(sim, mode, seed, j, cfg, ds, d)
+                starts = [500 + seed * args.starts + k for k in range(args.starts)]
+                row = {"seed": seed, "mode": mode, "round": j, "transitions": (j + 1) * args.round_traces * LENGTH,
+                       **score(sim, mdir, held, starts, best)}
+                with log.open("a") as f:
+                    f.write(json.dumps(row) + "\n")
+                rows.append(row)
+                print(f"seed {seed} {mode} {row['transitions']} transitions: log-lik {row['heldout_loglik']:.4f}, "
+                      f"PRADA {row['share'] if row['share'] is not None else float('nan'):.1%}",
+                      file=sys.stderr, flush=True)
+    sim.close()
+    wanted = set(seed_range(args.seeds))
+    summarise([r for r in rows if r["seed"] in wanted], args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

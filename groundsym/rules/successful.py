@@ -1,0 +1,388 @@
+"""Learning rules from successful-only traces: plans and demonstrations, where no action ever fails.
+
+The NID search (:mod:`groundsym.rules.learner`) adds a context literal only where the data show the
+action failing without it; a trace of successful actions shows no failure, so every context there
+stays ``(always)``. Here the context of an action is instead the *most specific* set of literals
+over its arguments that the examples support, as SAM's safe preconditions (Juba, Le & Stern 2021,
+"Safe learning of lifted action models", KR): a literal is kept when it holds in (nearly) every
+example of the action. Under observation noise a true precondition is seen false now and then,
+so literals are kept by *frequency* with a threshold, as NOLAM's model of noisy traces does
+(Lamanna & Serafini 2024, ICAPS); the threshold is chosen on held-out examples (below).
+Effects are the lifted changes seen often enough; the rule's outcomes and their probabilities are
+then induced on the examples as for any NID rule (:func:`induce_outcomes`), so stochastic
+actions keep several outcomes and a noise outcome (docs/rules.md, Successful-only traces).
+
+Choosing the threshold: the examples are split (seeded) into a training and a held-out part. For
+each threshold the literals at or above it are the *precondition group*, modelled as true except
+for one noise rate shared by the whole group (noise is the same for every atom); every other
+literal is modelled by its own frequency. The held-out log-likelihood of the literal observations
+rises while true preconditions (seen true at one common rate) join the group and falls once a
+literal that is merely often true joins. Held-out data cannot tell a true precondition seen at the
+noise rate from a literal that merely happens to hold as often, so among the thresholds within
+``slack`` nats of the best the lowest (the most specific context, the safe side) is taken.
+
+The noise rate itself comes from the data: an atom over the action's arguments that is no effect
+keeps its value from state to successor, so where it differs an observation was flipped. On
+noise-free data it is 0 and the threshold is SAM's 1.0 (no choice to make); with noise, a literal
+within three standard errors of ``1 - noise`` is kept too (an action seen a few times can see a
+true precondition flipped more often than the rate). Negated literals the context's positive
+literals already exclude in every observed state are left out (state invariants, as mutexes).
+
+Types: a unary predicate named in ``types`` is an object type (static, from the trace file); a
+literal over it is kept positive only (the operator's parameter type), and a negated literal whose
+atom is badly typed (its predicate never holds for objects of those types in the data) is never
+offered, so ``(not (on ?x ?y))`` appears only where ``on`` can hold at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import numpy as np
+
+from ..logic import Atom, Literal
+from .contexts import atoms_over
+from .coverage import Coverage, Example, ExampleTable
+from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet, _bindings
+from .outcomes import induce_outcomes
+
+#: unchanged pseudo-observations in the noise estimate: a few examples of a small problem say little
+PRIOR_UNCHANGED = 20.0
+THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
+
+
+@dataclass(frozen=True)
+class SuccessOptions:
+    """Knobs of successful-only learning (docs/rules.md, Successful-only traces). ``threshold``
+    fixes the frequency a context literal needs (None: chosen on held-out examples from
+    ``thresholds``); ``holdout`` is the share of examples held out for that choice; ``slack`` the
+    held-out log-likelihood (nats) a lower (more specific) threshold may lose; ``effect_share`` the share of the
+    examples where a lifted change could show in which it must show to be an effect."""
+
+    threshold: float | None = None
+    thresholds: tuple[float, ...] = THRESHOLDS
+    holdout: float = 0.3
+    slack: float = 1.0
+    effect_share: float = 0.1
+    alpha: float = 0.5
+    p_min: float = P_MIN
+    p_min_default: float = P_MIN_DEFAULT
+    nochange_prior: float = 0.5
+    prune: bool = True
+
+
+def has_failures(examples: Sequence[Example]) -> bool:
+    """Does some action leave the state unchanged (a failure, or an action that does nothing)?"""
+    return any(not e.changed for e in examples)
+
+
+@dataclass
+class _ActionData:
+    """One action's examples over its own arguments: the candidate literals, whether each holds
+    (``truth``: examples x literals) and the lifted changes seen."""
+
+    name: str
+    variables: tuple[str, ...]
+    literals: list[Literal]
+    truth: np.ndarray
+    weights: np.ndarray
+    reduced: list[Example] = field(default_factory=list)
+    n_types: int = 0
+    changes: tuple = ()                       # (examples, atoms, before, after) for the effects
+
+
+def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
+                         options: SuccessOptions = SuccessOptions(), *, seed: int = 0
+                         ) -> tuple[RuleSet, LearnReport]:
+    """One rule per action name: the frequency context, its induced outcomes, a default rule."""
+    types = frozenset(types)
+    sig = _signatures(examples, types)
+    groups: dict[tuple[str, int], list[Example]] = {}
+    for e in examples:
+        groups.setdefault((e.action.predicate, e.action.arity), []).append(e)
+    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig) for name, arity in sorted(groups)]
+    eps = _noise_rate(examples, types, sig)
+    for d in data:                   # a change noise alone explains is no effect
+        _reduce_all(d, max(options.effect_share, 3 * eps), types)
+    if options.threshold is not None:
+        theta, curve = options.threshold, {}
+    elif eps == 0:                   # noise-free: SAM's safe preconditions, nothing to choose
+        theta, curve = 1.0, {}
+    else:
+        theta, curve = _choose_threshold(data, options, np.random.default_rng(seed))
+    rules, defaults, report = [], [], LearnReport()
+    index = _state_index(examples, types)
+    for d in data:
+        rule, default, stats = _fit_action(d, theta, options, index, eps)
+        if rule is not None:
+            rules.append(rule)
+        defaults.append((d.name, default))
+        report.per_action[d.name] = {**stats, "heldout_threshold": theta, "noise": eps, "heldout_loglik": curve}
+    return RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, True, ()), report
+
+
+def _types_of(state: frozenset, types: frozenset) -> dict[str, set[str]]:
+    out: dict[str, set[str]] = {}
+    for a in state:
+        if a.predicate in types and a.arity == 1:
+            out.setdefault(a.args[0], set()).add(a.predicate)
+    return out
+
+
+def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str, int], set[frozenset]]:
+    """For each (predicate, position): the types of the objects seen there, each object's as the
+    set of its type atoms (a type and its ancestors; ``object`` without types). A negated literal
+    is offered only where its atom is well typed by these."""
+    sig: dict[tuple[str, int], set[frozenset]] = {}
+    for e in examples:
+        for s in (e.state, e.succ):
+            kinds = _types_of(s, types)
+            for a in s:
+                if a.predicate not in types:
+                    for k, o in enumerate(a.args):
+                        sig.setdefault((a.predicate, k), set()).add(frozenset(kinds.get(o, {"object"})))
+    return sig
+
+
+def _action_data(name: str, arity: int, examples: list[Example], predicates: dict[str, int], types: frozenset,
+                 sig: dict) -> _ActionData:
+    variables = tuple(f"?x{i + 1}" for i in range(arity))
+    fluents = {p: k for p, k in predicates.items() if p not in types}
+    atoms = atoms_over(variables, fluents, True)
+    kept = list(examples)        # also (move r1 a a): in PDDL parameters may repeat, and such an
+    #                              example says "(not (at ?r ?to))" is no precondition
+    lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
+        [Literal(a, s) for a in atoms for s in (True, False)]
+    truth = np.zeros((len(kept), len(lits)), dtype=bool)
+    before = np.zeros((len(kept), len(atoms)), dtype=bool)
+    after = np.zeros_like(before)
+    for i, e in enumerate(kept):
+        ground = dict(zip(variables, e.action.args))
+        kinds = _types_of(e.state, types)
+        for j, a in enumerate(atoms):
+            g = a.substitute(ground)
+            before[i, j], after[i, j] = g in e.state, g in e.succ
+        typed = np.array([all(frozenset(kinds.get(ground[v], {"object"})) in sig.get((a.predicate, k), set())
+                              for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
+        nt = len(types) * arity
+        truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
+                         for l in lits[:nt]]
+        truth[i, nt::2] = before[i]
+        truth[i, nt + 1::2] = ~before[i] & typed
+    w = np.array([e.weight for e in kept], dtype=float)
+    return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, (kept, atoms, before, after))
+
+
+def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
+    """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
+    kept, atoms, before, after = d.changes
+    effects = _effects(atoms, before, after, d.weights, share)
+    d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)
+                 if len(set(e.action.args)) == len(e.action.args)]   # outcomes: NID's injective bindings
+
+
+def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the atoms whose addition (deletion) shows in at least ``share`` of the examples
+    where it could show (the atom false before; true before): the effects, with changes that noise
+    alone explains left out (``share`` is at least three times the estimated noise)."""
+    def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
+        den, num = w @ could, w @ (could & did)
+        often = num >= share * w.sum()   # and in that share of all the examples: a rarely true atom
+        return np.where((den > 0) & often, num / np.maximum(den, 1e-300), 0.0)   # flipped back is noise
+    return frac(~before, after) >= share, frac(before, ~after) >= share
+
+
+def _reduce(e: Example, variables: tuple[str, ...], atoms: list[Atom], before: np.ndarray, after: np.ndarray,
+            effects: tuple[np.ndarray, np.ndarray], types: frozenset) -> Example:
+    """The example over the action's arguments alone: its state there, and its successor with only
+    the effect changes applied (changes elsewhere, or that noise explains, are dropped)."""
+    adds, dels = effects
+    ground = dict(zip(variables, e.action.args))
+    args = set(e.action.args)
+    state = frozenset([a.substitute(ground) for a, b in zip(atoms, before) if b]
+                      + [a for a in e.state if a.predicate in types and a.arity == 1 and a.args[0] in args])
+    add = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, adds) if m and c and not b}
+    rm = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, dels) if m and b and not c}
+    return Example(state, e.action, (state - rm) | add, tuple(e.action.args), e.weight)
+
+
+def _context(truth: np.ndarray, w: np.ndarray, theta: float) -> np.ndarray:
+    """Mask of the literals that hold in at least ``theta`` of the examples (by weight)."""
+    if w.sum() <= 0:
+        return np.zeros(truth.shape[1], dtype=bool)
+    return (w @ truth) / w.sum() >= theta - 1e-12
+
+
+def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random.Generator
+                      ) -> tuple[float, dict[str, float]]:
+    """The threshold whose precondition group best predicts held-out literal observations (module
+    docstring); 1.0 when nothing is held out."""
+    parts = []
+    for d in data:
+        held = rng.random(len(d.weights)) < o.holdout
+        parts.append((d.truth[~held], d.weights[~held], d.truth[held], d.weights[held]))
+    if not any(wh.sum() > 0 for *_, wh in parts):
+        return 1.0, {}
+    curve, chosen = {}, {}
+    for theta in o.thresholds:
+        groups = [_context(tt, wt, theta) for tt, wt, _, _ in parts]
+        chosen[theta] = tuple(np.flatnonzero(g).tobytes() for g in groups)
+        miss = sum(float((wt @ ~tt[:, g]).sum()) if g.any() else 0.0
+                   for (tt, wt, _, _), g in zip(parts, groups))
+        seen = sum(float(wt.sum() * g.sum()) for (_, wt, _, _), g in zip(parts, groups))
+        eps = (miss + 0.5) / (seen + 1.0)
+        ll = 0.0
+        for (tt, wt, th, wh), g in zip(parts, groups):
+            n, k = wt.sum(), wt @ tt
+            f = (k + 0.5) / (n + 1.0)
+            h = wh @ th
+            m = wh.sum()
+            p = np.where(g, 1.0 - eps, f)
+            ll += float(np.sum(h * np.log(p) + (m - h) * np.log1p(-p)))
+        curve[f"{theta:g}"] = ll
+    best = max(curve.values())
+    theta = min(t for t in o.thresholds if curve[f"{t:g}"] >= best - o.slack)
+    return max(t for t in o.thresholds if chosen[t] == chosen[theta]), curve   # same contexts: the higher
+
+
+def _state_index(examples: Sequence[Example], types: frozenset) -> tuple[list[frozenset], list[dict]]:
+    """The distinct observed states (types left out), and each as predicate -> argument tuples."""
+    seen = {frozenset(a for a in s if a.predicate not in types) for e in examples for s in (e.state, e.succ)}
+    states = sorted(seen, key=sorted)
+    index = []
+    for s in states:
+        by: dict[str, list[tuple[str, ...]]] = {}
+        for a in s:
+            by.setdefault(a.predicate, []).append(a.args)
+        index.append(by)
+    return states, index
+
+
+def _implied(pos: tuple[Literal, ...], neg: Atom, bound: list[tuple[dict, list[dict[str, str]]]],
+             tolerance: float) -> bool:
+    """Wherever the positive literals ``pos`` hold together in an observed state (``bound``: each
+    state's index and the bindings of ``pos`` in it), ``neg`` is false (for every object its
+    other variables could take), but as often as noise at rate ``tolerance`` explains:
+    ``(holding ?x)`` excludes ``(handempty)``; ``(power_on ?i) (on_board ?i ?s)`` excludes
+    ``(power_avail ?s)``. Parameters need not differ (PDDL), except where ``pos`` itself keeps them
+    apart: ``sail ?from ?to`` alone keeps ``(not (at-ferry ?to))``, beside ``(not-eq ?from ?to)`` it goes."""
+    free = [k for k, v in enumerate(neg.args) if not any(v in l.atom.args for l in pos)]
+    fan = 1
+    for k in free:                  # the groundings of the negated atom's other variables
+        fan *= max(1, len({qargs[k] for by, _ in bound for qargs in by.get(neg.predicate, ())}))
+    seen = both = 0
+    for by, binds in bound:
+        seen += len(binds)
+        both += sum(any(_extends(b, neg.args, qargs) for qargs in by.get(neg.predicate, ())) for b in binds)
+    # noise makes some grounding of the free variables true now and then: 1 - (1 - r)^fan
+    return seen > 0 and both <= 3 * (1 - (1 - tolerance) ** fan) * seen
+
+
+def _extends(b: dict[str, str], variables: tuple[str, ...], args: tuple[str, ...]) -> bool:
+    """Do ``args`` fit ``variables`` under ``b`` (new variables take any object)?"""
+    b = dict(b)
+    return all(b.setdefault(v, x) == x for v, x in zip(variables, args))
+
+
+def _prune(ctx: list[Literal], types: set[str], states: list[frozenset], index: list,
+           tolerance: float) -> list[Literal]:
+    """``ctx`` without the negated literals its positive literals already exclude in the observed
+    states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
+    ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
+    pos = tuple(l for l in ctx if l.positive and l.atom.predicate not in types)
+    if not pos or all(l.positive for l in ctx):
+        return ctx
+    bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
+    out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
+    return [l for l in out if not _mirrored(l, [l.atom for l in pos], index)]
+
+
+def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
+    """``lit`` is ``(p ?b ?a)`` beside ``(p ?a ?b)`` (parameters in order) and ``p`` is symmetric in
+    every observed state: ferry's ``(not-eq ?to ?from)`` says nothing ``(not-eq ?from ?to)`` does not."""
+    a = lit.atom
+    if not lit.positive or a.arity != 2 or a.args[0] <= a.args[1] or Atom(a.predicate, a.args[::-1]) not in pos:
+        return False
+    return all((y, x) in set(by.get(a.predicate, ())) for by in index for x, y in by.get(a.predicate, ()))
+
+
+def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict) -> float:
+    """The observation noise: in STRIPS an action changes only atoms over its own arguments, so
+    an atom over other objects that differs between state and successor had an observation
+    flipped; with flip rate ``r`` that happens to each well-typed atom with probability
+    ``2 r (1 - r)``. The atoms counted are those the types allow (``sig``). Noise-free data: 0."""
+    arity: dict[str, int] = {}
+    for p, k in sig:
+        arity[p] = max(arity.get(p, 0), k + 1)
+    universe: dict[tuple, int] = {}      # per object set: the well-typed atoms over it
+
+    def atoms(objects: tuple[str, ...], kinds: dict[str, set[str]]) -> int:
+        if objects not in universe:
+            counts: dict[tuple[str, int], int] = {}
+            for o in objects:
+                k = frozenset(kinds.get(o, {"object"}))
+                for key, allowed in sig.items():
+                    counts[key] = counts.get(key, 0) + (k in allowed)
+            universe[objects] = sum(int(np.prod([counts.get((p, k), 0) for k in range(n)]))
+                                    for p, n in arity.items())
+        return universe[objects]
+
+    changed = seen = 0.0
+    for e in examples:
+        kinds = _types_of(e.state, types)
+        args = set(e.action.args)
+        seen += e.weight * (atoms(e.objects, kinds) - atoms(tuple(sorted(args)), kinds))
+        changed += e.weight * sum(1 for a in e.state ^ e.succ
+                                  if a.predicate not in types and a.args and not set(a.args) <= args)
+    if seen <= 0 or changed <= 0:
+        return 0.0
+    q = min(changed / (seen + PRIOR_UNCHANGED), 0.5)
+    return float((1.0 - np.sqrt(1.0 - 2.0 * q)) / 2.0)
+
+
+def _accept(theta: float, eps: float, w: np.ndarray) -> float:
+    """The frequency an action's literal needs: ``theta``, lowered to three standard errors below
+    ``1 - eps`` where the action has few examples (a true precondition seen false at the noise
+    rate ``eps`` can fall below ``theta`` by chance). Noise-free data (``eps = 0``): ``theta``."""
+    n = max(float(w.sum()), 1.0)
+    return max(0.51, min(theta, 1.0 - eps - 3.0 * np.sqrt(eps * (1.0 - eps) / n))) if eps > 0 else theta
+
+
+def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, eps: float = 0.0
+                ) -> tuple[Rule | None, DefaultRule, dict]:
+    """The action's rule (context at ``theta``, outcomes induced on what it covers), its default."""
+    lo, hi = DEFAULT_CLIP
+    accept = theta if o.threshold is not None else _accept(theta, eps, d.weights)
+    stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0,
+             "threshold": accept}
+    if not d.reduced:
+        return None, DefaultRule(0.5), stats
+    ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
+    if o.prune:
+        ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, *index, eps)
+    ctx = tuple(sorted(ctx))
+    merged: dict[tuple, float] = {}
+    for e in d.reduced:
+        key = (e.state, e.action, e.succ, e.objects)
+        merged[key] = merged.get(key, 0.0) + e.weight
+    table = ExampleTable([Example(*k, w) for k, w in merged.items()], {l.atom.predicate: l.atom.arity
+                                                                        for l in d.literals})
+    action = Atom(d.name, d.variables)
+    cov: Coverage = table.cover(action, ctx, True)
+    if not len(cov) and accept < 1.0:   # no example meets the frequent literals together (noise, few
+        return _fit_action(d, 1.0, replace(o, threshold=1.0), index, 0.0)   # examples): SAM's context
+    rest = np.ones(len(table), dtype=bool)
+    rest[cov.index] = False
+    wr, ch = table.weights[rest], table.changed[rest]
+    default = DefaultRule(float(np.clip(wr[ch].sum() / wr.sum(), lo, hi)) if wr.sum() > 0 else 0.5)
+    if not len(cov):
+        return None, default, stats
+    of = induce_outcomes(table, cov, o.alpha, o.p_min)
+    rule = Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
+    n = float(table.weights[cov.index].sum())
+    fit = _smooth(RuleFit(rule, frozenset(cov.index.tolist()), of.loglik, n), o.nochange_prior)
+    stats.update(rules=1, score=of.loglik - o.alpha * rule.complexity(), covered=n)
+    return fit.rule, default, stats
