@@ -4,7 +4,7 @@ PY      := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
 RESULTS ?= results
 
-.PHONY: install demo test test-all bench bench-quick domains clean
+.PHONY: install kinder demo test test-all bench bench-quick domains clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
@@ -13,6 +13,11 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 install: $(STAMP)
+
+## kinder: KinDER's kinematic-2D environments (docs/kinder.md), without the packages that would change .[test]'s versions
+kinder: $(STAMP)
+	$(PY) -m pip install -q -e '.[test,kinder]'
+	$(PY) -m pip install -q --no-deps -r requirements-kinder.txt
 
 ## demo: the whole pipeline on defaults, outputs in results/
 demo: $(STAMP)

@@ -20,6 +20,8 @@ from .errors import UserError
 BUILTIN_SIMS = {
     "tower": "sims.tower:TowerSim",
     "bowling": "sims.bowling:BowlingSim",
+    "kinder-stickbutton": "sims.kinder2d:StickButtonSim",
+    "kinder-obstruction": "sims.kinder2d:ObstructionSim",
 }
 BUILTIN_PLANNERS = {
     "prada": "planners.prada:PradaPlanner",
