@@ -88,8 +88,16 @@ def test_a_stop_signal_in_every_long_command_is_one_line_and_its_status(
     assert descendants(os.getpid()) == set()
 
 
+def default_stop_signals() -> None:
+    """In the child: the stop signals at their defaults, whatever the test runner inherited (under
+    ``nohup`` SIGHUP arrives ignored, and a command rightly keeps an ignored signal ignored)."""
+    for sig in (signal.SIGHUP, signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def start(args: list[str], **kw) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    kw.setdefault("preexec_fn", default_stop_signals)
     return subprocess.Popen([sys.executable, "-m", "groundsym.cli", *args], cwd=ROOT, env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, **kw)
 
