@@ -43,7 +43,7 @@ def _pc(x):
     return np.int64(popcount(np.uint64(x)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rest_bound(umq, outq, inq, umc, outc, inc, seq, depth, rq, rc, dq, dc, strong):
     """A lower bound on the mismatches a partial order (positions 0..depth-1 filled by ``seq``)
     has still to add, where ``rq`` are the query's unplaced objects and ``rc`` the free positions:
