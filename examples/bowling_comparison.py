@@ -90,7 +90,7 @@ def play_run(args: argparse.Namespace, run: int, traces: list[int], sim: Bowling
         mdata = collect_traces(sim, n, 2, seeds["model_data"][n], progress=False)
         sds = symbols.to_symbolic_dataset(mdata)
         with tempfile.TemporaryDirectory() as tmp:
-            learn_symbolic_model(sds, Path(tmp), seed=seeds["planners"][n], argv=[], progress=False)
+            learn_symbolic_model(sds, Path(tmp), seed=seeds["planners"][n], argv=[], progress=False, mode="nid")
             m = load_model(tmp)
         report["rules"][str(n)] = len(m.rules.rules)      # NID rules PRADA plans with (besides defaults)
         pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,

@@ -109,7 +109,7 @@ def tower_pairs(seed: int, out: Path, evals: int, model_traces: int, all_data: b
             continue
         if not (mdir / "rules.json").exists():
             learn_symbolic_model(sym.to_symbolic_dataset(model_ds), mdir, seed=seed, argv=["groundsym", "learn"],
-                                 progress=False)
+                                 progress=False, mode="nid")
         out_pairs[name] = (load_model(mdir).rules, sym.to_symbolic_dataset(held_ds))
     return out_pairs
 

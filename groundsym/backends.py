@@ -129,7 +129,7 @@ class NumbaBackend(Backend):
         states, classes, pairs, orders = self._memo_sizes   # bounded memory: memos start afresh (same results)
         if states > 200_000:
             self._state_memo = compiled.new_state_memo()
-        if classes > 500_000 or pairs > 4_000_000 or orders > 1 << 28:    # (offsets of orders: 31 bits)
+        if classes > 500_000 or pairs > 4_000_000 or orders > 1 << 28:    # (offsets of orders: below the flag bits, 30 bits)
             self._intern, self._pair_memo = compiled.new_intern(), compiled.new_memo()
         *fields, self._memo_sizes = compiled.neighbourhood(
             u, b, np.asarray(lock, dtype=np.int64), np.asarray(label, dtype=np.int64),

@@ -156,7 +156,7 @@ def learn_round(ds: Dataset, cfg: ExploreConfig, seed: int, out: Path) -> None:
     with model_transaction(out) as stage:
         symbols.save_symbols(stage / "symbols.json", extra={"loss": result.terms.to_doc(), "seed": seed})
         learn_symbolic_model(symbols.to_symbolic_dataset(ds), stage, seed=seed,
-                             argv=["groundsym", "collect", "--explore"], progress=False)
+                             argv=["groundsym", "collect", "--explore"], progress=False, mode="nid")
 
 
 def load_round(out: Path, ds: Dataset) -> RoundModel:

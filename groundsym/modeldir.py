@@ -44,10 +44,22 @@ MANIFEST, MANIFEST_SCHEMA = "manifest.json", "groundsym.model/1"
 PARTS = (RULES, RULES_TXT, REWARD, SYMBOLIC, SYMBOLS, TRACES)
 
 
+RULE_MODES = ("auto", "nid", "successful-only")
+
+
 def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv: list[str],
                          alpha: float | None = None, p_min: float | None = None,
-                         progress: bool = True) -> None:
-    """Learn NID rules and a reward model from symbolic traces and write them to ``out_dir``."""
+                         progress: bool = True, mode: str = "auto") -> None:
+    """Learn NID rules and a reward model from symbolic traces and write them to ``out_dir``.
+
+    ``mode``: ``nid`` learns contexts from the failures in the data (random primitives, the
+    paper's setting); ``successful-only`` learns the most specific contexts the examples support
+    (plans, demonstrations: docs/rules.md, Successful-only traces); ``auto`` takes the second
+    where no action leaves its state unchanged. Callers that collect random primitives pass
+    ``nid``: a small sample in which every primitive happened to change something is still not a
+    plan."""
+    if mode not in RULE_MODES:
+        raise UserError(f"rule learning mode: expected one of {', '.join(RULE_MODES)}, got {mode!r}")
     if sds.n_transitions < 1:
         raise UserError("symbolic traces: traces: no transitions to learn from")
     if alpha is not None and alpha < 0:
@@ -61,7 +73,7 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     prov = provenance(argv, seed=seed, data_sha256=data_sha)
     examples = examples_from_dataset(sds)
     extra: dict[str, Any] = {}
-    if has_failures(examples):
+    if mode == "nid" or (mode == "auto" and has_failures(examples)):
         rs, report = learn_rules(examples, sds.predicates, opts, seed=seed, progress=progress)
     else:       # plans, demonstrations: no failure to learn contexts from (docs/rules.md, Successful-only traces)
         rs, report = learn_from_successes(examples, sds.predicates, tuple(object_types(sds)),

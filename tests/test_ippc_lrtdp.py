@@ -24,7 +24,8 @@ def _setup(problem: str):
     return env, task, ppddl_model(domain, prob, task, need_rules=False)
 
 
-def _reachable(task):
+def reachable_states(task):
+    """Every state the task reaches from its initial state (depth first; tests of other modules use it too)."""
     seen, todo = {task.initial_state}, [task.initial_state]
     while todo:
         s = todo.pop()
@@ -39,7 +40,7 @@ def _reachable(task):
 def test_hmax_is_admissible_and_lrtdp_values_match_value_iteration():
     _, task, model = _setup("p01")
     planner = make_planner("lrtdp", model, {"share": "0"}, 0)
-    states = _reachable(task)
+    states = reachable_states(task)
     goal = model.goal
     dead = planner.dead
     # breadth-first distance to the goal in the all-outcomes determinisation (from each state)

@@ -24,7 +24,7 @@ from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
 from groundsym.rules.successful import SuccessOptions, has_failures, learn_from_successes
 from groundsym.symbolic_traces import write_symbolic_traces
-from test_ippc_lrtdp import _reachable
+from test_ippc_lrtdp import reachable_states
 
 FERRY = """(define (domain ferry)
   (:requirements :strips :typing :negative-preconditions)
@@ -70,7 +70,7 @@ def _same_as_truth(rules: RuleSet) -> None:
     learned = determinize(operator_domain(rules, {"at-ferry": 1, "at": 2, "empty-ferry": 0, "on": 1},
                                           types=TYPES, noise="drop"), None, "most-likely")[0]
     mine = Task(learned, {o.name: o.type for o in task.problem.objects})
-    states = sorted(_reachable(task), key=sorted)
+    states = sorted(reachable_states(task), key=sorted)
     assert len(states) > 10
     for s in states:
         assert sorted(map(str, mine.applicable_actions(s))) == sorted(map(str, task.applicable_actions(s)))
@@ -181,3 +181,26 @@ def test_undeclared_type_is_one_line_exit_2(tmp_path: Path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "bad.json: meta.types: 'vehicle' is not a declared unary predicate" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_the_rule_mode_is_chosen_by_the_data_unless_the_caller_says(tmp_path):
+    """``auto`` takes successful-only learning on plan traces; ``nid`` (random-primitive data)
+    keeps the failure-driven learner whatever the sample holds, bit for bit its own output; an
+    unknown mode is one line."""
+    from groundsym.errors import UserError
+    from groundsym.modeldir import learn_symbolic_model
+    from groundsym.rules.io import read_rules
+    from groundsym.rules.learner import LearnOptions, learn_rules
+
+    _, ds = _dataset(5)
+    learn_symbolic_model(ds, tmp_path / "auto", seed=0, argv=[], progress=False)
+    learn_symbolic_model(ds, tmp_path / "nid", seed=0, argv=[], progress=False, mode="nid")
+    auto = json.loads((tmp_path / "auto" / "rules.json").read_text())
+    nid = json.loads((tmp_path / "nid" / "rules.json").read_text())
+    assert auto["options"]["mode"] == "successful-only" and "mode" not in nid["options"]
+    direct, _ = learn_rules(examples_from_dataset(ds), ds.predicates, LearnOptions(), seed=0, progress=False)
+    written, _ = read_rules(tmp_path / "nid" / "rules.json")
+    assert [str(r) for r in written.rules] == [str(r) for r in direct.rules] and len(direct.rules) == 3
+    assert [str(r) for r in read_rules(tmp_path / "auto" / "rules.json")[0].rules] != [str(r) for r in direct.rules]
+    with pytest.raises(UserError, match="rule learning mode"):
+        learn_symbolic_model(ds, tmp_path / "x", seed=0, argv=[], progress=False, mode="plans")

@@ -189,7 +189,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     two encodings alone, so what ran before changes the work, never the result. An exact entry
     holds the distance and the offset of its order in ``sigmas`` (a numba typed list of uint8, M
     entries per pair: one byte per object, so any M up to :data:`MAX_OBJECTS`; the caller starts
-    both afresh before the offsets outgrow 31 bits).
+    both afresh before the offsets reach the flag bits, 30 bits).
 
     Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
     sorted by query, then class: sigma maps the query's canonical positions onto the class's.

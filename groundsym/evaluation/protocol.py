@@ -131,7 +131,7 @@ def _run_unit(cfg: EvalConfig, n_symbol: int, run: int, scratch: Path) -> dict[s
             report.update(grounding_f1(symbols, mdata))
         sds = symbols.to_symbolic_dataset(mdata)
         mdir = scratch / model_name(n_symbol, n, run)
-        learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False)
+        learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False, mode="nid")
         m = load_model(mdir)
         models[mdir.name] = {f.name: f.read_text() for f in sorted(mdir.iterdir()) if f.is_file()}
         pm = PlanningModel(dict(sim.primitives), predicates=dict(symbols.predicates), symbols=symbols,

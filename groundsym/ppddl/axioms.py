@@ -13,9 +13,10 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Mapping
 
-from ..logic import Atom, is_variable
+from ..logic import Atom
 from .ast import (Action, And, AndEffect, Axiom, Domain, Effect, Exists, Forall, ForallEffect, Formula, Imply, Not,
-                  Or, Probabilistic, Typed, When)
+                  Or, Probabilistic, When)
+from .ground import substitute
 
 
 def expand(f: Formula, axioms: Mapping[str, Axiom]) -> Formula:
@@ -37,29 +38,7 @@ def expand(f: Formula, axioms: Mapping[str, Axiom]) -> Formula:
 def _instance(x: Axiom, args: tuple[str, ...]) -> Formula:
     """The body of ``x`` with its head's variables set to ``args`` (bound variables renamed where
     an argument would be captured)."""
-    return _substitute(x.body, dict(zip(x.head.args, args)))
-
-
-def _substitute(f: Formula, ren: Mapping[str, str]) -> Formula:
-    if isinstance(f, Atom):
-        return f.substitute(ren)
-    if isinstance(f, Not):
-        return Not(_substitute(f.arg, ren))
-    if isinstance(f, (And, Or)):
-        return type(f)(tuple(_substitute(g, ren) for g in f.args))
-    if isinstance(f, Imply):
-        return Imply(_substitute(f.left, ren), _substitute(f.right, ren))
-    inner = {k: v for k, v in ren.items() if k not in {p.name for p in f.params}}
-    taken = {v for v in inner.values() if is_variable(v)}
-    params = []
-    for p in f.params:
-        name = p.name
-        while name in taken:                  # an argument would be captured: rename the bound one
-            name += "_"
-        if name != p.name:
-            inner[p.name] = name
-        params.append(Typed(name, p.type))
-    return type(f)(tuple(params), _substitute(f.body, inner))
+    return substitute(x.body, dict(zip(x.head.args, args)))
 
 
 def _effect(e: Effect, axioms: Mapping[str, Axiom]) -> Effect:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Callable, Iterable, Mapping, Sequence
 
-from ..logic import Atom, Literal
+from ..logic import Atom, Literal, is_variable
 from .ast import (OBJECT, TRUE, Action, And, AndEffect, Effect, ForallEffect, Formula, Imply, Not, Or, Probabilistic,
                   Typed, When)
 
@@ -20,8 +20,9 @@ NOTHING: Outcome = (1.0, frozenset(), frozenset(), 0.0)       # the outcome that
 
 
 def substitute(f: Formula, ren: Mapping[str, str]) -> Formula:
-    """``f`` with its free variables renamed by ``ren`` (a quantifier's own variables are kept);
-    unlike :func:`ground_formula`, nothing is decided or simplified."""
+    """``f`` with its free variables renamed by ``ren`` (a quantifier's own variables are kept,
+    and renamed where a variable ``ren`` brings in would be captured by them); unlike
+    :func:`ground_formula`, nothing is decided or simplified."""
     if isinstance(f, Atom):
         return f.substitute(ren)
     if isinstance(f, Not):
@@ -31,7 +32,16 @@ def substitute(f: Formula, ren: Mapping[str, str]) -> Formula:
     if isinstance(f, Imply):
         return Imply(substitute(f.left, ren), substitute(f.right, ren))
     inner = {k: v for k, v in ren.items() if k not in {p.name for p in f.params}}
-    return type(f)(f.params, substitute(f.body, inner))
+    taken = {v for v in inner.values() if is_variable(v)}
+    params = []
+    for p in f.params:
+        name = p.name
+        while name in taken:                  # an argument would be captured: rename the bound one
+            name += "_"
+        if name != p.name:
+            inner[p.name] = name
+        params.append(Typed(name, p.type))
+    return type(f)(tuple(params), substitute(f.body, inner))
 
 
 def ground_formula(f: Formula, b: Mapping[str, str]) -> Formula:
