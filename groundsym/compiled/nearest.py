@@ -164,7 +164,8 @@ def _candidate_groups(c, have, cgroups, dgroups, ucode, ecode, ducode, decode, t
     phase 1 (``dgroups``), the first time a pass needs them."""
     if not have[c]:
         cgroups[c] = twin_groups_row(ucode[c], ecode[c])
-        dgroups[c] = twin_groups_row(ducode[c], decode[c]) if two_phase else cgroups[c]
+        if two_phase:           # otherwise dgroups is cgroups
+            dgroups[c] = twin_groups_row(ducode[c], decode[c])
         have[c] = True
 
 
@@ -224,11 +225,14 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
         dum, dout, dinn = _object_masks(du, db)
     else:
         dl, ducode, decode, dum, dout, dinn = lock, ucode, ecode, um, out, inn
-    duword = np.empty((c_n, m), dtype=np.int64)
-    for c in range(c_n):
-        for x in range(m):
-            duword[c, x] = ducode[c, x] & ubits
-    dgroups = np.empty((c_n, m), dtype=np.int64)
+    if two_phase:
+        duword = np.empty((c_n, m), dtype=np.int64)
+        for c in range(c_n):
+            for x in range(m):
+                duword[c, x] = ducode[c, x] & ubits
+        dgroups = np.empty((c_n, m), dtype=np.int64)
+    else:                       # one order: the degree-order views are the canonical ones
+        duword, dgroups = uword, cgroups
     work = work_arrays(m)
     seq = np.empty(m, dtype=np.int64)
     used = np.zeros(m, dtype=np.bool_)
