@@ -199,9 +199,10 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         scratch = (np.empty(m, np.int64), np.zeros(m, np.bool_), np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64))
         target = -np.sort(-lock[0])
         sigma = np.full(m, -1, dtype=np.int64)
+        strong = None if trial % 4 < 2 else True     # the plain and the strong search (any size), both exact
         d = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1], out[1],
                                    inn[1], lock[0], target, groups, cgroups, cutoff, -1, *scratch, sigma,
-                                       pair_search.work_arrays(m))
+                                       pair_search.work_arrays(m), strong)
         if best > cutoff:
             assert d == -1
             cut_hits += 1
@@ -212,7 +213,7 @@ def test_pair_distance_is_the_first_minimiser_of_the_enumeration():
         sigma2 = np.full(m, -1, dtype=np.int64)
         d2 = pair_search._pair_distance(uword[0], ecode[0], uword[1], ecode[1], um[0], out[0], inn[0], um[1],
                                     out[1], inn[1], lock[0], target, groups, cgroups, 1 << 30, lo, *scratch, sigma2,
-                                        pair_search.work_arrays(m))
+                                        pair_search.work_arrays(m), True if strong is None else None)
         assert d2 == d and np.array_equal(sigma2, sigma)
     assert cut_hits >= 300, cut_hits
 
@@ -289,7 +290,7 @@ def test_pair_distance_beyond_7_objects_equals_the_reference_search():
                                    out[0], inn[0], um[1], out[1], inn[1], lock[0], -np.sort(-lock[0]),
                                    compiled.twin_groups_row(ucode[0], ecode[0]),
                                    compiled.twin_groups_row(ucode[1], ecode[1]), 1 << 30, -1, *scratch, sigma,
-                                   pair_search.work_arrays(m))
+                                   pair_search.work_arrays(m), True)
         ea, eb = (Encoded(u[i], b[i], np.zeros(0, np.uint8), lock[i], 0) for i in range(2))
         want, perm = exact_state_distance(ea, eb)
         assert d == want, trial

@@ -14,7 +14,7 @@ import numpy as np
 from .base import INF, insert_sorted, njit, numba, popcount
 from .canonical import state_codes, twin_groups_row
 from .heap import heap_pop, heap_push
-from .pair_search import _object_masks, _pair_distance, work_arrays
+from .pair_search import STRONG_FROM, _object_masks, _pair_distance, work_arrays
 
 
 _DIST_SHIFT = 32         # pair memo value: the distance above this bit, flags and a store offset below
@@ -112,7 +112,9 @@ def _pinned_bound(pin, q, c, pu, pcount, pdeg, binary, psorted, m):
 
 _BOUND = np.int64(1) << np.int64(31)     # pair memo flag: the entry is a lower bound, not the distance
 _NO_ORDER = np.int64(1) << np.int64(30)  # pair memo flag: the exact distance, its first order not yet found
-_TWO_PHASE_FROM = 8                      # from this many objects, distances first in degree order
+_INLINE_BITS = 3                         # up to _INLINE_MAX objects an order is packed in the memo value,
+_INLINE_MAX = 7                          # 3 bits per object (21 bits, below the flags), not in the store
+_TWO_PHASE_FROM = STRONG_FROM            # from this many objects, distances first in degree order
 
 
 @njit(cache=True)
@@ -190,7 +192,8 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     two encodings alone, so what ran before changes the work, never the result. An exact entry
     holds the distance and the offset of its order in ``sigmas`` (a numba typed list of uint8, M
     entries per pair: one byte per object, so any M up to :data:`MAX_OBJECTS`; the caller starts
-    both afresh before the offsets reach the flag bits, 30 bits).
+    both afresh before the offsets reach the flag bits, 30 bits); up to :data:`_INLINE_MAX` objects
+    the order is packed in the entry itself, 3 bits per object (no store traffic at the paper's size).
 
     Returns ``best`` (Q,) and the hits as parallel arrays (query position, class, sigma (H, M)),
     sorted by query, then class: sigma maps the query's canonical positions onto the class's.
@@ -219,6 +222,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     # enumeration's order only for the pairs that end up tied at a query's nearest distance
     # (phase 2, cut at that distance): far candidates never pay for the lexicographic walk
     two_phase = m >= _TWO_PHASE_FROM
+    inline_orders = m <= _INLINE_MAX
     if two_phase:
         du, db, dl = _degree_orders(unary, binary, lock)
         ducode, decode = state_codes(du, db, dl)
@@ -328,15 +332,24 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                 if not have_groups:
                     groups, target = twin_groups_row(ucode[q], ecode[q]), -np.sort(-lock[q])
                     have_groups = True
-                _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                 cut = np.int64(1 << 30) if b == INF else np.int64(b)
-                d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c], dout[c],
-                                   dinn[c], lock[q], dl[c] if two_phase else target, groups, dgroups[c],
-                                   cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig, work)
+                if two_phase:
+                    _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
+                    d = _pair_distance(uword[q], ecode[q], duword[c], decode[c], um[q], out[q], inn[q], dum[c],
+                                       dout[c], dinn[c], lock[q], dl[c], groups, dgroups[c],
+                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig, work, True)
+                else:
+                    d = _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c],
+                                       out[c], inn[c], lock[q], target, groups, groups,
+                                       cut, np.int64(math.ceil(lo)), seq, used, nxt, cost, sig, work, None)
                 if d < 0:
                     v = ((cut + np.int64(1)) << np.int64(_DIST_SHIFT)) | _BOUND
                 elif two_phase:
                     v = (d << np.int64(_DIST_SHIFT)) | _NO_ORDER
+                elif inline_orders:
+                    v = d << np.int64(_DIST_SHIFT)
+                    for p in range(m):
+                        v |= sig[p] << np.int64(_INLINE_BITS * p)
                 else:
                     v = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
                     for p in range(m):
@@ -359,7 +372,7 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
                     _candidate_groups(c, have_cgroups, cgroups, dgroups, ucode, ecode, ducode, decode, two_phase)
                     d = np.int64(b)
                     _pair_distance(uword[q], ecode[q], uword[c], ecode[c], um[q], out[q], inn[q], um[c], out[c],
-                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig, work)
+                                   inn[c], lock[q], target, groups, cgroups[c], d, d, seq, used, nxt, cost, sig, work, True)
                     packed[c] = (d << np.int64(_DIST_SHIFT)) | np.int64(len(sigmas))
                     for p in range(m):
                         sigmas.append(np.uint8(sig[p]))
@@ -376,7 +389,10 @@ def nearest_classes(unary, binary, lock, labels, profile, n_unary, lone, ucode, 
     hs = np.empty((n_hits, m), dtype=np.int64)
     for t in range(n_hits):
         for p in range(m):
-            hs[t, p] = sigmas[hv[t] + p]
+            if inline_orders:
+                hs[t, p] = (hv[t] >> np.int64(_INLINE_BITS * p)) & np.int64(7)
+            else:
+                hs[t, p] = sigmas[hv[t] + p]
     return best, hq[:n_hits], hc[:n_hits], hs
 
 
