@@ -16,6 +16,8 @@ from pathlib import Path
 from ..collect import collect_traces
 from ..errors import UserError
 from ..explore import MODES, ExploreConfig, explore_traces
+from ..glib import GlibOptions, planner_check
+from ..options import split_key_values
 from ..provenance import provenance
 from ..registry import make_sim
 from ..traces import write_traces
@@ -40,13 +42,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--explore", choices=MODES, default=None,
                    help="directed exploration: 'counts' runs a primitive whose covering rule of the model learned "
                         "so far explained fewest transitions, while fewer than 3 (Lang, Toussaint & Kersting "
-                        "2012); needs --rounds and --work")
+                        "2012); 'glib' babbles a novel goal (an action in a context it was never run in) and plans "
+                        "to it with the model learned so far (GLIB, Chitnis et al. 2021); needs --rounds and --work")
     p.add_argument("--rounds", type=Count(2, MAX_TRACES, "rounds"), default=None, metavar="R",
                    help="--explore: the traces come in R rounds (R divides --traces); a model is learned after each")
     p.add_argument("--work", type=Path, default=None, metavar="DIR",
                    help="--explore: folder for each round's traces and model; an interrupted run resumes from it")
     p.add_argument("--explore-evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=15_000, metavar="E",
                    help="--explore: loss evaluations of each round's symbol search (default 15000)")
+    p.add_argument("--explore-planner", default=None, metavar="NAME",
+                   help="--explore glib: the planner that plans to babbled goals, by name (default prada)")
+    p.add_argument("--explore-planner-opt", action="append", default=[], metavar="KEY=VALUE",
+                   help="--explore glib: an option of that planner (default for prada: samples=200, retries=1)")
 
 
 def explore_config(args: argparse.Namespace) -> ExploreConfig | None:
@@ -61,7 +68,23 @@ def explore_config(args: argparse.Namespace) -> ExploreConfig | None:
         raise UserError(f"--rounds: {args.rounds} does not divide --traces {args.traces}")
     writable_output(args.work / "explore.json")
     return ExploreConfig(args.rounds, args.traces // args.rounds, args.length, evals=args.explore_evals,
-                         mode=args.explore)
+                         mode=args.explore, glib=glib_options(args))
+
+
+def glib_options(args: argparse.Namespace) -> GlibOptions:
+    """The planner for ``--explore glib``, found by name and its options checked now."""
+    if args.explore != "glib":
+        if args.explore_planner is not None or args.explore_planner_opt:
+            raise UserError("--explore-planner/--explore-planner-opt: only with --explore glib")
+        return GlibOptions()
+    opts = GlibOptions()
+    if args.explore_planner is not None or args.explore_planner_opt:
+        given = split_key_values(args.explore_planner_opt, "--explore-planner-opt")
+        opts = GlibOptions(planner=args.explore_planner or opts.planner,
+                           planner_opts=tuple(sorted(given.items())) if args.explore_planner_opt else
+                           (opts.planner_opts if args.explore_planner in (None, opts.planner) else ()))
+    planner_check(opts)
+    return opts
 
 
 def run(args: argparse.Namespace) -> int:
