@@ -66,9 +66,10 @@ def explore_config(args: argparse.Namespace) -> ExploreConfig | None:
         raise UserError("--explore: needs --rounds and --work")
     if args.traces % args.rounds:
         raise UserError(f"--rounds: {args.rounds} does not divide --traces {args.traces}")
+    glib = glib_options(args)
     writable_output(args.work / "explore.json")
     return ExploreConfig(args.rounds, args.traces // args.rounds, args.length, evals=args.explore_evals,
-                         mode=args.explore, glib=glib_options(args))
+                         mode=args.explore, glib=glib)
 
 
 def glib_options(args: argparse.Namespace) -> GlibOptions:
