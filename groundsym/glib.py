@@ -67,24 +67,13 @@ def canonical(action: Atom, literals: Sequence[Atom], extra: int) -> GoalKey:
     return action, best
 
 
-def linked(action: Atom, literals: Sequence[Atom]) -> bool:
-    """Every variable of the literals is reachable from the action's through shared literals."""
-    reach = set(action.args)
-    grew = True
-    while grew:
-        grew = False
-        for a in literals:
-            if reach & set(a.args) and not set(a.args) <= reach:
-                reach |= set(a.args)
-                grew = True
-    return all(set(a.args) <= reach for a in literals)
-
-
 def candidate_goals(primitives: Mapping[str, int], predicates: Mapping[str, int], size: int = 2,
                     extra: int = 2) -> list[GoalKey]:
-    """Every lifted goal: an action and 1..``size`` distinct positive literals, linked, up to renaming.
+    """Every lifted goal: an action and 1..``size`` distinct positive literals, up to renaming.
 
-    Variables within a literal are distinct (the learned binary symbols are over pairs of objects)."""
+    Variables within a literal are distinct (the learned binary symbols are over pairs of objects).
+    A literal need not share a variable with the action: ``inhand(?e0)`` says the hand is full,
+    which is what a release over a tower needs."""
     goals: set[GoalKey] = set()
     for name, arity in sorted(primitives.items()):
         action = Atom(name, action_variables(arity))
@@ -92,8 +81,7 @@ def candidate_goals(primitives: Mapping[str, int], predicates: Mapping[str, int]
         literals = [Atom(p, args) for p, n in sorted(predicates.items()) for args in permutations(names, n)]
         for k in range(1, size + 1):
             for conj in combinations(literals, k):
-                if linked(action, conj):
-                    goals.add(canonical(action, conj, extra))
+                goals.add(canonical(action, conj, extra))
     return sorted(goals)
 
 
@@ -135,6 +123,7 @@ class GlibOptions:
     extra: int = 2
     known: int = 1
     tries: int = 8
+    give_up: int = 3
     max_steps: int = 6
     min_value: float = 1e-3
     rollouts: int = 20
@@ -153,17 +142,21 @@ class GlibModel:
     counts: dict
     primitives: dict[str, int]
     gamma: float = 0.9
+    failures: dict = field(default_factory=dict)     # goal -> babbles without a plan, this round
     stats: dict = field(default_factory=lambda: {"here": 0, "babbled": 0, "planned": 0, "reached": 0,
                                                                "fallback": 0})
 
-    def novel(self, known: int) -> list[GoalKey]:
+    def novel(self, known: int, give_up: int) -> list[GoalKey]:
         """The goals run fewer than ``known`` times; when every goal has been run that often, the
-        least-run ones (so babbling goes on where GLIB's novelty runs out in a small vocabulary)."""
-        if not self.goals:
+        least-run ones (so babbling goes on where GLIB's novelty runs out in a small vocabulary).
+        A goal the planner found no plan for ``give_up`` times this round is left out: many
+        conjunctions of learned symbols no state can hold, and they would stay novel for ever."""
+        goals = [g for g in self.goals if self.failures.get(g, 0) < give_up]
+        if not goals:
             return []
-        counts = [self.counts.get(g, 0) for g in self.goals]
+        counts = [self.counts.get(g, 0) for g in goals]
         cut = known if min(counts) < known else min(counts) + 1
-        return [g for g, n in zip(self.goals, counts) if n < cut]
+        return [g for g, n in zip(goals, counts) if n < cut]
 
     def record(self, state: frozenset, action: Atom, objects: Sequence[str]) -> None:
         for g in goals_run(self.goals, state, action, objects):
@@ -224,7 +217,7 @@ def verified(model: GlibModel, opts: GlibOptions, obs: Observation, decision: De
 def babble(model: GlibModel, opts: GlibOptions, obs: Observation, rng: np.random.Generator) -> Pursuit | None:
     """A novel goal to pursue from ``obs`` (one that holds now if any does), or None: no novel goal
     or no plan to one in ``opts.tries`` draws."""
-    novel = model.novel(opts.known)
+    novel = model.novel(opts.known, opts.give_up)
     if not novel:
         return None
     here = [(g, a) for g in novel for a in obs.actions if holds(g, obs.state, a, obs.objects)]
@@ -251,6 +244,7 @@ def babble(model: GlibModel, opts: GlibOptions, obs: Observation, rng: np.random
         if verified(model, opts, obs, decision, goal, rng):
             model.stats["planned"] += 1
             return Pursuit(goal, action, planner, first=decision)
+        model.failures[g] = model.failures.get(g, 0) + 1
     return None
 
 
