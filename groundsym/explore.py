@@ -25,6 +25,9 @@ is usually one primitive away):
   almost always one no rule covers, a release with an empty hand, say, and traces spent their
   steps on such no-ops, one signature after another.
 
+``mode="glib"`` replaces the counting by goal babbling with a planner (``groundsym.glib``); the
+rounds, the learning and the resumption are the same.
+
 Every random choice derives from ``seed`` (``collect.trace_seeds``: trace ``i`` keeps its reset
 seed and action Generator whatever the mode), learning from ``SeedSequence(seed, round)``, so the
 same seed gives the same file. A round's traces and model are written atomically once it ends: an

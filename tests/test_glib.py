@@ -100,7 +100,8 @@ def test_a_babbled_goal_is_reached_along_the_shortest_plan_then_its_action_runs(
     state, objects, run, pursuit = frozenset(), ("a", "b"), [], None
     actions = (A("pick", "a"), A("pick", "b"), A("put", "a"), A("put", "b"))
     for t in range(3):
-        action, pursuit = next_action(model, GlibOptions(), pursuit, Observation(objects, actions, state, None, t, 3 - t), rng)
+        obs = Observation(objects, actions, state, None, t, 3 - t)
+        action, pursuit = next_action(model, GlibOptions(), pursuit, obs, rng)
         run.append(action)
         state = sample_successor(rules, state, action, rng, objects)
     x, y = run[0].args[0], run[1].args[0]

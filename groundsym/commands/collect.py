@@ -4,7 +4,9 @@ The paper's data: ``N`` traces of ``T`` uniformly random primitives, each from a
 state, written as ``groundsym.traces/1`` JSON (docs/formats.md) with the sim, its options, the seed
 and the command line in ``meta``. With ``--explore counts`` the ``N`` traces come in ``--rounds``
 rounds, each after the first choosing the primitives the model learned so far knows least
-(``groundsym.explore``; Lang, Toussaint & Kersting 2012), resumable from ``--work``.
+(``groundsym.explore``; Lang, Toussaint & Kersting 2012), resumable from ``--work``; with
+``--explore glib`` each round babbles goals the data has never shown and plans to them with a
+planner found by name (``groundsym.glib``; Chitnis et al. 2021). docs/explore.md.
 """
 
 from __future__ import annotations
