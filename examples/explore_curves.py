@@ -36,6 +36,7 @@ from groundsym.collect import collect_traces  # noqa: E402
 from groundsym.episode import SimEnv, run_episode  # noqa: E402
 from groundsym.explore import ExploreConfig, dataset, explore_traces, learn_round  # noqa: E402
 from groundsym.fileio import atomic_write_bytes  # noqa: E402
+from groundsym.glib import GlibOptions  # noqa: E402
 from groundsym.modeldir import load_model  # noqa: E402
 from groundsym.planner import PlanningModel, make_planner  # noqa: E402
 from groundsym.registry import make_sim  # noqa: E402
@@ -126,6 +127,8 @@ def paired(rows: list[dict], n: int, mode: str, against: int | None = None) -> s
     mine = {r["seed"]: r for r in rows if r["transitions"] == n and r["mode"] == mode}
     base = {r["seed"]: r for r in rows if r["transitions"] == (against or n) and r["mode"] == "random"}
     seeds = sorted(set(mine) & set(base))
+    if not seeds:
+        return ""
     out = []
     for key, fmt in (("heldout_loglik", "{:+.3f} +- {:.3f}"), ("share", "{:+.1%} +- {:.1%}")):
         d = np.array([mine[s][key] - base[s][key] for s in seeds], float)
@@ -157,6 +160,48 @@ def curves_png(curves: dict) -> bytes:
     return buf.getvalue()
 
 
+def tallest(scene) -> int:
+    """The tallest tower in the simulator's truth (``on(x, y)``: x stands on y)."""
+    below = {a.args[0]: a.args[1] for a in scene.truth if a.predicate == "on"}
+    best = 0
+    for o in scene.objects:
+        h, x = 1, o
+        while x in below and h <= len(scene.objects):
+            x, h = below[x], h + 1
+        best = max(best, h)
+    return best
+
+
+def data_stats(traces) -> tuple[float, int, float]:
+    """By the simulator's truth: the share of transitions that change ``inhand`` or ``on``, the
+    releases with a cube in hand over a cube that stands on another (the step to a tower of three
+    and more, where towers topple), and the mean over traces of the tallest tower reached."""
+    changed = over_stack = n = 0
+    for tr in traces:
+        for (s, a, s2) in tr.transitions():
+            n += 1
+            changed += any(x.predicate in ("inhand", "on") for x in s.truth ^ s2.truth)
+            over_stack += (a.predicate == "openHandOver" and any(x.predicate == "inhand" for x in s.truth)
+                           and any(x.predicate == "on" and x.args[0] == a.args[0] for x in s.truth))
+    return changed / max(n, 1), over_stack, float(np.mean([max(map(tallest, tr.scenes)) for tr in traces]))
+
+
+def data_table(out: Path, seeds: list[int], cfgs: dict[str, ExploreConfig]) -> None:
+    """What each mode's data holds at each of its sizes (mean over seeds), by the simulator's truth."""
+    print("\n| data | seeds | transitions changing inhand/on | releases in hand over a stacked cube | "
+          "tallest tower per trace |")
+    print("|---|---|---|---|---|")
+    for mode, cfg in cfgs.items():
+        paths = [out / f"seed{s}" / f"{mode}.json" for s in seeds]
+        runs = [read_traces(p).traces for p in paths if p.exists()]
+        for j in range(cfg.rounds):
+            k = (j + 1) * cfg.round_traces
+            v = np.array([data_stats(tr[:k]) for tr in runs]).reshape(-1, 3)
+            if len(v):
+                print(f"| {mode}, {k * LENGTH} | {len(v)} | {v[:, 0].mean():.0%} | {v[:, 1].mean():.1f} | "
+                      f"{v[:, 2].mean():.2f} |")
+
+
 def configs(args: argparse.Namespace) -> dict[str, ExploreConfig]:
     """Each mode's rounds: random and directed ``--rounds`` x ``--round-traces``, glib its own."""
     modes = [m for m in args.modes.split(",") if m]
@@ -166,7 +211,8 @@ def configs(args: argparse.Namespace) -> dict[str, ExploreConfig]:
     out = {}
     for m in modes:
         if m == "glib":
-            out[m] = ExploreConfig(args.glib_rounds, args.glib_round_traces, LENGTH, evals=args.evals, mode="glib")
+            out[m] = ExploreConfig(args.glib_rounds, args.glib_round_traces, LENGTH, evals=args.evals, mode="glib",
+                                   glib=GlibOptions(random_share=args.glib_random_share))
         else:
             out[m] = ExploreConfig(args.rounds, args.round_traces, LENGTH, evals=args.evals)
     return out
@@ -180,6 +226,8 @@ def main() -> int:
     ap.add_argument("--round-traces", type=int, default=5)
     ap.add_argument("--glib-rounds", type=int, default=4)
     ap.add_argument("--glib-round-traces", type=int, default=3)
+    ap.add_argument("--glib-random-share", type=float, default=0.0,
+                    help="glib: the share of steps (between pursuits) that run a random primitive instead")
     ap.add_argument("--evals", type=int, default=15_000)
     ap.add_argument("--starts", type=int, default=6)
     ap.add_argument("--out", type=Path, required=True)
@@ -216,6 +264,7 @@ def main() -> int:
     sim.close()
     wanted = set(seed_range(args.seeds))
     summarise([r for r in rows if r["seed"] in wanted and r["mode"] in cfgs], args.out)
+    data_table(args.out, sorted(wanted), cfgs)
     return 0
 
 

@@ -128,6 +128,7 @@ class GlibOptions:
     min_value: float = 1e-3
     rollouts: int = 20
     min_reach: float = 0.1
+    random_share: float = 0.0
     planner: str = "prada"
     planner_opts: tuple[tuple[str, str], ...] = (("samples", "200"), ("retries", "1"))
 
@@ -256,6 +257,9 @@ def next_action(model: GlibModel, opts: GlibOptions, pursuit: Pursuit | None, ob
         return pursuit.action, None
     if pursuit is not None and pursuit.steps >= opts.max_steps:
         pursuit = None                      # not reached in time: babble afresh
+    if pursuit is None and opts.random_share and rng.random() < opts.random_share:
+        model.stats["random"] = model.stats.get("random", 0) + 1      # an epsilon-greedy mixture
+        return obs.actions[int(rng.integers(len(obs.actions)))], None
     if pursuit is None:
         pursuit = babble(model, opts, obs, rng)
     if pursuit is None:

@@ -157,3 +157,13 @@ def test_cli_glib_gives_the_library_run_with_the_same_options(tmp_path):
     cfg = ExploreConfig(2, 2, 4, evals=400, mode="glib", glib=GlibOptions(planner_opts=(("samples", "100"),)))
     with TowerSim(cubes=3) as sim:
         assert same_traces(ds, explore_traces(sim, cfg, 2, tmp_path / "lib", progress=False))
+
+
+def test_a_random_share_of_one_never_babbles_and_draws_uniformly():
+    model = model_of(pick_put(), {})
+    rng = np.random.default_rng(1)
+    actions = (A("pick", "a"), A("pick", "b"), A("put", "a"), A("put", "b"))
+    obs = Observation(("a", "b"), actions, frozenset(), None, 0, 1)
+    picks = [next_action(model, GlibOptions(random_share=1.0), None, obs, rng)[0] for _ in range(400)]
+    assert model.stats["babbled"] == 0 and model.stats["random"] == 400
+    assert all(70 < picks.count(a) < 130 for a in actions)
