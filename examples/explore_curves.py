@@ -150,6 +150,10 @@ def curves_png(curves: dict) -> bytes:
             pts = np.array(curves.get((mode, key), []), float).reshape(-1, 3)
             if len(pts):
                 ax.errorbar(pts[:, 0], pts[:, 1], yerr=pts[:, 2], marker="o", capsize=3, c=colour, label=mode)
+        target = np.array(curves.get(("random", key), []), float).reshape(-1, 3)
+        if len(target):     # the target: random's figure at its most data, with half as much
+            ax.axhline(target[-1, 1], ls="--", c="tab:gray", lw=0.8)
+            ax.axvline(target[-1, 0] / 2, ls=":", c="tab:gray", lw=0.8)
         ax.set_xlabel("transitions in all")
         ax.set_ylabel(label)
         ax.legend()
