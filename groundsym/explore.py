@@ -25,6 +25,9 @@ is usually one primitive away):
   almost always one no rule covers, a release with an empty hand, say, and traces spent their
   steps on such no-ops, one signature after another.
 
+``mode="glib"`` replaces the counting by goal babbling with a planner (``groundsym.glib``); the
+rounds, the learning and the resumption are the same.
+
 Every random choice derives from ``seed`` (``collect.trace_seeds``: trace ``i`` keeps its reset
 seed and action Generator whatever the mode), learning from ``SeedSequence(seed, round)``, so the
 same seed gives the same file. A round's traces and model are written atomically once it ends: an
@@ -44,6 +47,7 @@ from .anneal import AnnealConfig, anneal
 from .collect import collect_trace, trace_seeds
 from .errors import UserError
 from .fileio import atomic_write_json
+from .glib import GlibModel, GlibOptions, glib_model, glib_trace
 from .logic import Atom
 from .loss import LossConfig, prepare
 from .modeldir import learn_symbolic_model, load_model, model_transaction
@@ -53,7 +57,7 @@ from .sim import Sim, cell_meta
 from .symbols import SymbolSet
 from .traces import Dataset, Trace, read_traces, write_traces
 
-MODES = ("counts",)
+MODES = ("counts", "glib")
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,7 @@ class ExploreConfig:
     binary: int = 1
     mode: str = "counts"
     known: int = 3
+    glib: GlibOptions = GlibOptions()
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -84,6 +89,13 @@ class ExploreConfig:
 
     def anneal_config(self) -> AnnealConfig:
         return AnnealConfig(n_unary=self.unary, n_binary=self.binary, evals=self.evals, restarts=self.restarts)
+
+    def record(self) -> dict[str, Any]:
+        """The options as JSON values; GLIB's only in ``glib`` mode (a ``counts`` record is as before)."""
+        out = json.loads(json.dumps(asdict(self)))
+        if self.mode != "glib":
+            del out["glib"]
+        return out
 
 
 @dataclass(frozen=True)
@@ -159,8 +171,10 @@ def learn_round(ds: Dataset, cfg: ExploreConfig, seed: int, out: Path) -> None:
                              argv=["groundsym", "collect", "--explore"], progress=False, mode="nid")
 
 
-def load_round(out: Path, ds: Dataset) -> RoundModel:
+def load_round(out: Path, ds: Dataset, cfg: ExploreConfig, gamma: float = 0.9) -> RoundModel | GlibModel:
     m = load_model(out)
+    if cfg.mode == "glib":
+        return glib_model(m.symbols, m.rules, ds, cfg.glib, gamma)
     return RoundModel(m.symbols, m.rules, experience_counts(m.rules, m.symbols, ds))
 
 
@@ -183,13 +197,13 @@ def check_work(work: Path, identity: dict[str, Any]) -> None:
 def explore_traces(sim: Sim, cfg: ExploreConfig, seed: int, work: Path, progress: bool = True,
                    meta: dict[str, Any] | None = None) -> Dataset:
     """All rounds (resuming finished ones from ``work``), as one Dataset in trace order."""
-    identity = {"sim": sim.name, "options": dict(getattr(sim, "options", {})), "seed": seed, **asdict(cfg)}
+    identity = {"sim": sim.name, "options": dict(getattr(sim, "options", {})), "seed": seed, **cfg.record()}
     work.mkdir(parents=True, exist_ok=True)
     check_work(work, identity)
     seeds = trace_seeds(seed, cfg.rounds * cfg.round_traces)
     bar = Progress(cfg.rounds * cfg.round_traces * cfg.length, f"explore {sim.name}", enabled=progress)
     traces: list[Trace] = []
-    model: RoundModel | None = None
+    model: RoundModel | GlibModel | None = None
     for r in range(cfg.rounds):
         path = work / f"round-{r}.json"
         if path.exists():
@@ -199,7 +213,8 @@ def explore_traces(sim: Sim, cfg: ExploreConfig, seed: int, work: Path, progress
             mine = seeds[r * cfg.round_traces:(r + 1) * cfg.round_traces]
             got = [run_trace(sim, model, cfg, s, rng, lambda: bar.update(bar.done + 1, f"round {r + 1}"))
                    for s, rng in mine]
-            write_traces(path, dataset(sim, got, {"round": r}))
+            done = {"round": r, **({"glib": dict(model.stats)} if isinstance(model, GlibModel) else {})}
+            write_traces(path, dataset(sim, got, done))
             traces.extend(got)
         if r + 1 < cfg.rounds:
             so_far = dataset(sim, traces, {})
@@ -207,19 +222,21 @@ def explore_traces(sim: Sim, cfg: ExploreConfig, seed: int, work: Path, progress
             if not (out / "rules.json").exists():
                 bar.update(bar.done, f"round {r + 1}: learning")
                 learn_round(so_far, cfg, int(np.random.SeedSequence([seed, r]).generate_state(1)[0]), out)
-            model = load_round(out, so_far)
+            model = load_round(out, so_far, cfg, float(getattr(sim, "gamma", 0.9)))
     bar.close()
     info = {"sim": sim.name, "options": dict(getattr(sim, "options", {})), "seed": seed,
             "traces": len(traces), "length": cfg.length, **cell_meta(sim),
-            "explore": {k: v for k, v in asdict(cfg).items() if k != "length"}}
+            "explore": {k: v for k, v in cfg.record().items() if k != "length"}}
     info.update(meta or {})
     return dataset(sim, traces, info)
 
 
-def run_trace(sim: Sim, model: RoundModel | None, cfg: ExploreConfig, reset_seed: int, rng: np.random.Generator,
-              on_step) -> Trace:
+def run_trace(sim: Sim, model: RoundModel | GlibModel | None, cfg: ExploreConfig, reset_seed: int,
+              rng: np.random.Generator, on_step) -> Trace:
     if model is None:
         return collect_trace(sim, cfg.length, reset_seed, rng, on_step)
+    if isinstance(model, GlibModel):
+        return glib_trace(sim, model, cfg.glib, cfg.length, reset_seed, rng, on_step)
     return explore_trace(sim, model, cfg.length, reset_seed, rng, on_step, cfg.known)
 
 

@@ -4,7 +4,9 @@ The paper's data: ``N`` traces of ``T`` uniformly random primitives, each from a
 state, written as ``groundsym.traces/1`` JSON (docs/formats.md) with the sim, its options, the seed
 and the command line in ``meta``. With ``--explore counts`` the ``N`` traces come in ``--rounds``
 rounds, each after the first choosing the primitives the model learned so far knows least
-(``groundsym.explore``; Lang, Toussaint & Kersting 2012), resumable from ``--work``.
+(``groundsym.explore``; Lang, Toussaint & Kersting 2012), resumable from ``--work``; with
+``--explore glib`` each round babbles goals the data has never shown and plans to them with a
+planner found by name (``groundsym.glib``; Chitnis et al. 2021). docs/explore.md.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from pathlib import Path
 from ..collect import collect_traces
 from ..errors import UserError
 from ..explore import MODES, ExploreConfig, explore_traces
+from ..glib import GlibOptions, planner_check
+from ..options import split_key_values
 from ..provenance import provenance
 from ..registry import make_sim
 from ..traces import write_traces
@@ -40,13 +44,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--explore", choices=MODES, default=None,
                    help="directed exploration: 'counts' runs a primitive whose covering rule of the model learned "
                         "so far explained fewest transitions, while fewer than 3 (Lang, Toussaint & Kersting "
-                        "2012); needs --rounds and --work")
+                        "2012); 'glib' babbles a novel goal (an action in a context it was never run in) and plans "
+                        "to it with the model learned so far (GLIB, Chitnis et al. 2021); needs --rounds and --work")
     p.add_argument("--rounds", type=Count(2, MAX_TRACES, "rounds"), default=None, metavar="R",
                    help="--explore: the traces come in R rounds (R divides --traces); a model is learned after each")
     p.add_argument("--work", type=Path, default=None, metavar="DIR",
                    help="--explore: folder for each round's traces and model; an interrupted run resumes from it")
     p.add_argument("--explore-evals", type=Count(1, MAX_EVALS, "loss evaluations"), default=15_000, metavar="E",
                    help="--explore: loss evaluations of each round's symbol search (default 15000)")
+    p.add_argument("--explore-planner", default=None, metavar="NAME",
+                   help="--explore glib: the planner that plans to babbled goals, by name (default prada)")
+    p.add_argument("--explore-planner-opt", action="append", default=[], metavar="KEY=VALUE",
+                   help="--explore glib: an option of that planner (default for prada: samples=200, retries=1)")
 
 
 def explore_config(args: argparse.Namespace) -> ExploreConfig | None:
@@ -59,9 +68,26 @@ def explore_config(args: argparse.Namespace) -> ExploreConfig | None:
         raise UserError("--explore: needs --rounds and --work")
     if args.traces % args.rounds:
         raise UserError(f"--rounds: {args.rounds} does not divide --traces {args.traces}")
+    glib = glib_options(args)
     writable_output(args.work / "explore.json")
     return ExploreConfig(args.rounds, args.traces // args.rounds, args.length, evals=args.explore_evals,
-                         mode=args.explore)
+                         mode=args.explore, glib=glib)
+
+
+def glib_options(args: argparse.Namespace) -> GlibOptions:
+    """The planner for ``--explore glib``, found by name and its options checked now."""
+    if args.explore != "glib":
+        if args.explore_planner is not None or args.explore_planner_opt:
+            raise UserError("--explore-planner/--explore-planner-opt: only with --explore glib")
+        return GlibOptions()
+    opts = GlibOptions()
+    if args.explore_planner is not None or args.explore_planner_opt:
+        given = split_key_values(args.explore_planner_opt, "--explore-planner-opt")
+        opts = GlibOptions(planner=args.explore_planner or opts.planner,
+                           planner_opts=tuple(sorted(given.items())) if args.explore_planner_opt else
+                           (opts.planner_opts if args.explore_planner in (None, opts.planner) else ()))
+    planner_check(opts)
+    return opts
 
 
 def run(args: argparse.Namespace) -> int:
