@@ -39,27 +39,26 @@ def row(label: str, folder: Path, optimum: float) -> dict:
             "pruned": [r["report"].get("pruned") for r in runs], "grounding": ground}
 
 
-def chart(rows: list[dict]) -> bytes:
-    import io
-
+def chart(rows: list[dict], path: Path) -> None:
+    """Bars of the share of V* (+- standard error), the builders as vertical lines."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
-    names = [r["row"] for r in rows]
-    ax.barh(names, [100 * r["share"] for r in rows], xerr=[100 * r["stderr"] for r in rows], color="#4477aa")
+    ax.barh([r["row"] for r in rows], [100 * r["share"] for r in rows], xerr=[100 * r["stderr"] for r in rows],
+            color="#4477aa")
     for (name, v), style in zip(BUILDERS.items(), ("--", ":")):
         ax.axvline(100 * v, color="k", linestyle=style, label=f"{name} {100 * v:.1f}%")
-    ax.set_xlabel("PRADA, share of V* (%)")
-    ax.set_xlim(0, 100)
+    ax.set(xlabel="PRADA, share of V* (%)", xlim=(0, 100))
     ax.invert_yaxis()
     ax.legend(loc="lower left", fontsize=8)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
     plt.close(fig)
-    return buf.getvalue()
+    atomic_write_bytes(path, tmp.read_bytes())
+    tmp.unlink()
 
 
 def main() -> int:
@@ -76,7 +75,7 @@ def main() -> int:
         print(f"| {r['row']} | {r['runs']} x {r['episodes'] // r['runs']} | {100 * r['share']:.1f}% +- "
               f"{100 * r['stderr']:.1f}% | {r['full_episodes']:.2f} | {ground} |")
     atomic_write_json(args.out.with_suffix(".json"), {"optimum": optimum, "rows": rows})
-    atomic_write_bytes(args.out.with_suffix(".png"), chart(rows))
+    chart(rows, args.out.with_suffix(".png"))
     return 0
 
 
