@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..errors import UserError
-from ..evaluation.config import EvalConfig
+from ..evaluation.config import RULE_DATA, EvalConfig
 from ..evaluation.protocol import evaluate, optimum_of
 from ..evaluation.store import check_config
 from ..evaluation.tables import markdown_table
@@ -65,6 +65,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--truth-symbols", default="", metavar="PRED,PRED",
                    help="diagnosis only: abstract with the sim's ground-truth relations instead of learned "
                    "symbols (e.g. inhand,on), to separate planning from symbol learning")
+    p.add_argument("--rule-data", choices=RULE_DATA, default="model",
+                   help="what NID rules, the reward model and the NN baselines learn from: the fresh --model-traces "
+                   "(model, the paper's protocol and the default) or the run's symbol data too (all; with "
+                   "--truth-symbols the symbol data is then collected too); docs/planning.md")
     p.add_argument("-o", "--output", required=True, help="results folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -117,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
                      symbol_data=parse_list(args.symbol_data, "--symbol-data", MAX_TRANSITIONS, "transitions"),
                      model_traces=parse_list(args.model_traces, "--model-traces", MAX_TRACES, "traces"), seed=args.seed,
                      evals=args.evals, steps=args.steps, starts=args.starts, unary=args.unary, binary=args.binary,
-                     restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth)
+                     restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth,
+                     rule_data=args.rule_data)
     optimum = optimum_of(args.sim, given)
     _warn_if_resuming_an_older_cell(Path(args.output) / "results.json", args.sim)
     check_executor_options(args.executor, args.ray_address)

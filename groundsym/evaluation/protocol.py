@@ -25,6 +25,7 @@ import math
 import tempfile
 import time
 from contextlib import closing
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -119,7 +120,7 @@ def _run_unit(cfg: EvalConfig, n_symbol: int, run: int, scratch: Path) -> dict[s
     sim = _sim(cfg)
     seeds = unit_seeds(cfg, n_symbol, run)
     n_traces = max(1, math.ceil(n_symbol / cfg.trace_length))
-    sym_data = None if cfg.truth_symbols else \
+    sym_data = None if cfg.truth_symbols and cfg.rule_data == "model" else \
         collect_traces(sim, n_traces, cfg.trace_length, seeds["symbol_data"], progress=False)
     symbols, report = learn_symbols(sym_data, cfg, seeds["anneal"], sim)
     steps = cfg.steps or int(sim.episode_length)
@@ -128,7 +129,9 @@ def _run_unit(cfg: EvalConfig, n_symbol: int, run: int, scratch: Path) -> dict[s
     for n in cfg.model_traces:
         mdata = collect_traces(sim, n, cfg.trace_length, seeds["model_data"][n], progress=False)
         if not cfg.truth_symbols and "grounding" not in report:
-            report.update(grounding_f1(symbols, mdata))
+            report.update(grounding_f1(symbols, mdata))     # graded on the fresh traces only
+        if cfg.rule_data == "all":
+            mdata = replace(mdata, traces=sym_data.traces + mdata.traces)
         sds = symbols.to_symbolic_dataset(mdata)
         mdir = scratch / model_name(n_symbol, n, run)
         learn_symbolic_model(sds, mdir, seed=seeds["planners"][n], argv=[], progress=False, mode="nid")
