@@ -119,7 +119,12 @@ def summarise(pairs: dict[str, list], rows: list[dict], setting: str, out: Path)
           f"noise predicted / unexplained | default-covered share | held-out log-lik |")
     print("|---|---|---|---|---|---|---|---|")
     for name, mine_pairs in pairs.items():
-        mine = [r for r in rows if r["row"] == name]
+        mine = [r for r in rows if r["row"] == name and r["predictions"] > 0]
+        skipped = sum(1 for r in rows if r["row"] == name and r["predictions"] == 0)
+        if skipped:     # a run whose rules predict nothing (a failed symbol search) has no ECE, not an ECE of 0
+            print(f"({name}: {skipped} run(s) without outcome predictions left out)")
+        if not mine:
+            continue
         e = np.array([r["ece"] for r in mine])
         se = e.std(ddof=1) / np.sqrt(len(e)) if len(e) > 1 else 0.0
         cal = pooled_calibration(mine_pairs)
