@@ -42,7 +42,7 @@ from groundsym.ppddl.ast import Typed  # noqa: E402
 from groundsym.ppddl.determinize import determinize  # noqa: E402
 from groundsym.ppddl.operators import operator_domain  # noqa: E402
 from groundsym.rules.learner import examples_from_dataset  # noqa: E402
-from groundsym.rules.successful import learn_from_successes  # noqa: E402
+from groundsym.rules.successful import SuccessOptions, learn_from_successes  # noqa: E402
 
 DOMAINS6 = ("blocksworld", "ferry", "grippers", "miconic", "satellite", "spanner")
 LEARNERS = ("groundsym", "SAM", "OffLAM", "NOLAM")
@@ -57,17 +57,28 @@ def learn_groundsym(domain_path: str, traj_paths: list[str], objects: list[dict[
     runs = [(*read_trajectory(p), objs) for p, objs in zip(traj_paths, objects)]
     ds = symbolic_dataset(sig, runs)
     types = ds.meta["types"]
-    rs, _ = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(types), seed=0)
+    rs, _ = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(types),
+                                 SuccessOptions(negative=sig.negative_preconditions), seed=0,
+                                 constants=tuple(sig.constants))
     signatures = {p: tuple(Typed(f"?a{i + 1}", sig.type_predicate(t) if t != "object" else "object")
                            for i, t in enumerate(ts)) for p, ts in sig.predicates.items()}
     params = {a: tuple(f"?{n}" for n, _ in ps) for a, ps in sig.operators.items()}
     dom = operator_domain(rs, ds.predicates, name=sig.name, types=types, noise="drop",
-                          signatures=signatures, parameters=params)
+                          signatures=signatures, parameters=params,
+                          constants={c: sig.type_predicate(t) for c, t in sig.constants.items()})
     plain, _ = determinize(dom, None, "most-likely")
     text = "\n".join(line for line in str(plain).splitlines() if not line.strip().startswith(";"))
     learned = {a.name for a in plain.actions}
     extra = [_unseen(a, ps, sig) for a, ps in sorted(sig.operators.items()) if a not in learned]
-    return text.rstrip()[:-1] + "\n" + "\n".join(extra) + ")\n" if extra else text
+    head, *blocks = text.rstrip()[:-1].split("\n  (:action ")
+    blocks = ["  (:action " + b for b in blocks] + extra
+    # in the reference's order: AMLGym's domain reader takes an operator's text from the first
+    # ":action NAME..." in the file, so where one name prefixes another (childsnack's make_sandwich,
+    # make_sandwich_no_gluten) it reads the longer one's body for both, in the reference and the
+    # learned file alike; in the same order both are misread the same way (as the baselines' are)
+    order = {a: k for k, a in enumerate(sig.operators)}
+    blocks.sort(key=lambda b: order.get(b.split()[1], len(order)))
+    return "\n".join([head, *blocks]) + ")\n"
 
 
 def _unseen(name: str, params: tuple[tuple[str, str], ...], sig) -> str:
@@ -143,15 +154,17 @@ def _plain(x):
 
 
 def run_domain(domain: str, sizes: list[int], noises: list[float], learners: list[str], n_problems: int,
-               timeout: int, seed: int) -> None:
+               timeout: int, seed: int, redo: frozenset[str] = frozenset()) -> None:
+    """Every cell of ``domain`` not in its results file yet (``redo``: these learners' cells
+    again, e.g. after a change to the learner)."""
     from amlgym.benchmarks import get_domain_path, get_problems_path, get_trajectories_path
     ref = get_domain_path(domain)
     out_path = RESULTS / f"{domain}.json"
     results = json.loads(out_path.read_text()) if out_path.exists() else {}
     trajs = get_trajectories_path(domain, "learning")
     problems = {int(Path(p).name.split("_")[0]): p for p in get_problems_path(domain, "learning")}
-    objects = [problem_objects(problems[int(Path(t).name.split("_")[0])]) for t in trajs]
     sig = read_signature(ref)
+    objects = [{**sig.constants, **problem_objects(problems[int(Path(t).name.split("_")[0])])} for t in trajs]
     for noise in noises:
         with tempfile.TemporaryDirectory(prefix="amlgym-noisy-") as tmp:
             paths = []
@@ -164,7 +177,7 @@ def run_domain(domain: str, sizes: list[int], noises: list[float], learners: lis
             for size in sizes:
                 for learner in learners:
                     key = f"{learner}|{size}|{noise:g}"
-                    if key in results:
+                    if key in results and learner not in redo:
                         continue
                     print(f"{domain} {key} ...", file=sys.stderr, flush=True)
                     try:
@@ -292,6 +305,8 @@ def main() -> int:
     ap.add_argument("--problems", type=int, default=3, help="problems per domain for prediction and solving")
     ap.add_argument("--timeout", type=int, default=20, help="planner seconds per problem")
     ap.add_argument("--seed", type=int, default=0, help="seed of the noise")
+    ap.add_argument("--redo", nargs="*", default=[], choices=LEARNERS,
+                    help="run these learners' cells again though the results hold them")
     ap.add_argument("--tables", action="store_true", help="only write docs/amlgym-table.md and the PNG")
     args = ap.parse_args()
     if any(n < 0 or n >= 0.5 for n in args.noise) or any(s < 1 for s in args.sizes) or args.problems < 1:
@@ -313,7 +328,8 @@ def main() -> int:
         return 2
     RESULTS.mkdir(parents=True, exist_ok=True)
     for d in domains:
-        run_domain(d, args.sizes, args.noise, args.learners, args.problems, args.timeout, args.seed)
+        run_domain(d, args.sizes, args.noise, args.learners, args.problems, args.timeout, args.seed,
+                   frozenset(args.redo))
     write_tables()
     return 0
 
