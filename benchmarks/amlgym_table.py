@@ -185,9 +185,20 @@ def run_domain(domain: str, sizes: list[int], noises: list[float], learners: lis
                         cell = {"cpu": cpu, **score(text, domain, ref, n_problems, timeout)}
                     except Exception as err:
                         cell = {"error": f"{type(err).__name__}: {err}"[:300]}
-                    results[key] = cell
-                    atomic_write_json(out_path, results)
+                    results = _store(out_path, key, cell)
                     print(f"{domain} {key}: {_summary(cell)}", file=sys.stderr, flush=True)
+
+
+def _store(path: Path, key: str, cell: dict) -> dict:
+    """Add one cell to a domain's results file, under a lock and re-reading the file first, so
+    runs of other learners or settings may write the same file at the same time."""
+    import fcntl
+    with open(path.with_suffix(".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        results = json.loads(path.read_text()) if path.exists() else {}
+        results[key] = cell
+        atomic_write_json(path, results)
+    return results
 
 
 def _summary(c: dict) -> str:
@@ -228,7 +239,8 @@ def write_tables(docs: Path = ROOT / "docs") -> None:
             "## At the largest training size", "",
             "Each cell: syntactic precision/recall (mean over operators), applicability precision, solved and",
             "false-plan ratios, learning CPU seconds; `x`: the learner or the scoring failed (the reason is in",
-            "the domain's results file).", "", *summary(data), "", "## Every cell", ""]
+            "the domain's results file).", "", *summary(data), "", "## Why cells failed", "",
+            *failures(data), "", "## Every cell", ""]
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
                             text=True).stdout.strip() or "unknown"
     tail = ["", "## Measured", "",
@@ -263,6 +275,23 @@ def summary(data: dict) -> list[str]:
                                  f"{c['cpu']:.2f}s")
             out.append(f"| {dom} | {nz} | {big} | " + " | ".join(cells) + " |")
     return out
+
+
+def failures(data: dict) -> list[str]:
+    """One row per learner and reason: the cells (domain, trajectories, noise) whose learning or
+    scoring raised it, the reason as the results file holds it (shortened)."""
+    why: dict[tuple[str, str], list[str]] = {}
+    for dom, res in sorted(data.items()):
+        for key, c in sorted(res.items()):
+            if "error" in c:
+                learner, size, nz = key.split("|")
+                reason = " ".join(c["error"].split())[:110].replace("|", "/")
+                why.setdefault((learner, reason), []).append(f"{dom} {size}/{nz}")
+    rows = ["| learner | reason (the learner's or the scorer's exception) | cells (domain trajs/noise) |",
+            "|---|---|---|"]
+    for (learner, reason), cells in sorted(why.items(), key=lambda kv: (LEARNERS.index(kv[0][0]), kv[0][1])):
+        rows.append(f"| {learner} | `{reason}` | {', '.join(cells)} |")
+    return rows if len(rows) > 2 else ["No cell failed."]
 
 
 def _plot(data: dict, path: Path) -> None:

@@ -307,10 +307,12 @@ def _prune(ctx: list[Literal], types: set[str], states: list[frozenset], index: 
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
     pos = tuple(l for l in ctx if l.positive and l.atom.predicate not in types)
-    if not pos or all(l.positive for l in ctx):
+    if not pos:
         return ctx
-    bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
-    out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
+    out = ctx
+    if not all(l.positive for l in ctx):
+        bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
+        out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
     return [l for l in out if not _mirrored(l, [l.atom for l in pos], index)]
 
 
