@@ -94,6 +94,7 @@ class _ActionData:
     reduced: list[Example] = field(default_factory=list)
     n_types: int = 0
     changes: tuple = ()                       # (examples, atoms, before, after) for the effects
+    effects: tuple = ()                       # masks over those atoms: (added, deleted)
 
 
 def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
@@ -192,7 +193,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
 def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
     """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
     kept, atoms, before, after = d.changes
-    effects = _effects(atoms, before, after, d.weights, share)
+    effects = d.effects = _effects(atoms, before, after, d.weights, share)
     d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)
                  if len(set(e.action.args)) == len(e.action.args)]   # outcomes: NID's injective bindings
 
@@ -375,12 +376,14 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     accept = theta if o.threshold is not None else _accept(theta, eps, d.weights)
     stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0,
              "threshold": accept}
-    if not d.reduced:
+    if not len(d.weights):
         return None, DefaultRule(0.5), stats
     ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
     if o.prune:
         ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, *index, eps)
     ctx = tuple(sorted(ctx))
+    if not d.reduced:             # every example repeats an argument (tpp's levels): no injective
+        return _lifted_rule(d, ctx, accept), DefaultRule(0.5), {**stats, "rules": 1}   # binding for NID's outcomes
     named = tuple(sorted({x for l in ctx for x in l.atom.args if not is_variable(x)}))
     table, action, table_ctx = _table(d, ctx, named)
     cov: Coverage = table.cover(action, table_ctx, True)
@@ -400,6 +403,21 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     fit = _smooth(RuleFit(rule, frozenset(cov.index.tolist()), of.loglik, n), o.nochange_prior)
     stats.update(rules=1, score=of.loglik - o.alpha * rule.complexity(), covered=n)
     return fit.rule, default, stats
+
+
+def _lifted_rule(d: _ActionData, ctx: tuple[Literal, ...], accept: float) -> Rule:
+    """SAM's rule where no example binds the action's arguments injectively (PDDL lets them
+    coincide, NID's outcome induction does not): one deterministic outcome, the lifted changes
+    that :func:`_effects` found and that hold afterwards in (at least ``accept`` of) the examples;
+    where arguments coincide a change fits several lifted atoms, and only the one that is an
+    effect holds after every step (tpp's ``(loaded ?p ?v ?l4)``, not ``(loaded ?p ?v ?l5)``)."""
+    _, atoms, _, after = d.changes
+    share = (d.weights @ after) / d.weights.sum()
+    adds, dels = d.effects
+    adds, dels = adds & (share >= accept - 1e-12), dels & (1.0 - share >= accept - 1e-12)
+    changes = [Literal(a, True) for a, m in zip(atoms, adds) if m] + \
+              [Literal(a, False) for a, m in zip(atoms, dels) if m]
+    return Rule(Atom(d.name, d.variables), ctx, (Outcome(tuple(changes)),), (1.0,), 0.0)
 
 
 def _table(d: _ActionData, ctx: tuple[Literal, ...], named: tuple[str, ...]
