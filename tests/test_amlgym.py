@@ -34,10 +34,11 @@ def test_trajectory_reading_matches_the_file():
     assert set(objs[0].values()) == {"block"}
 
 
-@pytest.mark.parametrize("domain", ["blocksworld", "ferry", "miconic", "childsnack"])
+@pytest.mark.parametrize("domain", ["blocksworld", "ferry", "miconic", "childsnack", "tpp"])
 def test_clean_trajectories_give_the_reference_operators(domain, tmp_path):
     """miconic: no negated precondition the plans merely never contradict (its requirements lack
-    :negative-preconditions); childsnack: ``put_on_tray`` needs ``(at ?t kitchen)``, a constant."""
+    :negative-preconditions); childsnack: ``put_on_tray`` needs ``(at ?t kitchen)``, a constant;
+    tpp: every ``load`` repeats a level among its arguments (no injective binding)."""
     from amlgym.metrics import syntactic_precision, syntactic_recall
     ref, trajs, objs = _inputs(domain, 10)
     path = tmp_path / "learned.pddl"
