@@ -89,7 +89,10 @@ def learn_groundsym(domain_path: str, traj_paths: list[str], objects: list[dict[
 
 def _unseen(name: str, params: tuple[tuple[str, str], ...], sig) -> str:
     """An operator the trajectories never show (or never changing anything): SAM's safe choice,
-    every well-typed atom over its parameters as precondition and no effect, so no plan uses it."""
+    every well-typed atom over its parameters as precondition and no change, so no plan uses it.
+    Its effect re-adds its first precondition (a no-op where it applies): unified-planning drops
+    an empty effect when it writes the domain for Fast Downward, whose translator then rejects
+    the action, and no problem of the domain is solved (matchingbw's unseen putdown_pos_neg)."""
     import itertools
 
     def fits(t: str, want: str) -> bool:
@@ -97,7 +100,8 @@ def _unseen(name: str, params: tuple[tuple[str, str], ...], sig) -> str:
     pre = sorted({f"({p} {' '.join(args)})".replace(" )", ")") for p, ts in sig.predicates.items()
                   for args in itertools.product(*([f"?{n}" for n, t in params if fits(t, w)] for w in ts))})
     typed = " ".join(f"?{n} - {sig.type_predicate(t)}" for n, t in params)
-    return f"  (:action {name}\n    :parameters ({typed})\n    :precondition (and {' '.join(pre)})\n    :effect (and))"
+    return (f"  (:action {name}\n    :parameters ({typed})\n    :precondition (and {' '.join(pre)})\n"
+            f"    :effect (and {pre[0] if pre else ''}))")
 
 
 def learn_cell(learner: str, domain_path: str, traj_paths: list[str], objects: list[dict[str, str]],
