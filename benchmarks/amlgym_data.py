@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import itertools
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,13 @@ class DomainSignature:
     types: dict[str, str | None]
     predicates: dict[str, tuple[str, ...]]
     operators: dict[str, tuple[tuple[str, str], ...]]
+    constants: dict[str, str] = field(default_factory=dict)
+    requirements: tuple[str, ...] = ()
+
+    @property
+    def negative_preconditions(self) -> bool:
+        """May a precondition be negated? Only where the domain declares it (or ``:adl``)."""
+        return bool({":negative-preconditions", ":adl"} & set(self.requirements))
 
     def type_predicate(self, t: str) -> str:
         """The unary predicate that says an object has type ``t`` (``type-t`` if ``t`` is a predicate)."""
@@ -51,7 +58,10 @@ def read_signature(domain_path: str | Path) -> DomainSignature:
     types = {t.name: (t.father.name if t.father is not None else None) for t in problem.user_types}
     preds = {f.name: tuple(p.type.name for p in f.signature) for f in problem.fluents}
     ops = {a.name: tuple((p.name, p.type.name) for p in a.parameters) for a in problem.actions}
-    return DomainSignature(problem.name, types, preds, ops)
+    consts = {o.name: o.type.name for o in problem.all_objects}
+    text = Path(domain_path).read_text().lower()
+    req = re.search(r"\(:requirements([^)]*)\)", text)
+    return DomainSignature(problem.name, types, preds, ops, consts, tuple(req.group(1).split()) if req else ())
 
 
 def problem_objects(problem_path: str | Path) -> dict[str, str]:
@@ -121,6 +131,7 @@ def symbolic_dataset(sig: DomainSignature, runs: list[tuple[list[frozenset], lis
     ancestors), the types declared so learning treats them as types."""
     traces = []
     for states, actions, objects in runs:
+        objects = {**sig.constants, **objects}
         statics = frozenset(Atom(sig.type_predicate(k), (o,)) for o, t in objects.items() for k in sig.ancestors(t))
         objs = set(objects) | {x for s in states for a in s for x in a.args} | {x for a in actions for x in a.args}
         traces.append(SymbolicTrace(tuple(sorted(objs)), [s | statics for s in states], list(actions),

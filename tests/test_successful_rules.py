@@ -65,10 +65,13 @@ def _dataset(n: int, seed: int = 0, flip: float = 0.0):
 
 
 def _same_as_truth(rules: RuleSet) -> None:
-    """The learned operators, determinised, act as the true ones on every reachable state."""
-    task = _task()
     learned = determinize(operator_domain(rules, {"at-ferry": 1, "at": 2, "empty-ferry": 0, "on": 1},
                                           types=TYPES, noise="drop"), None, "most-likely")[0]
+    _acts_as(_task(), learned)
+
+
+def _acts_as(task: Task, learned) -> None:
+    """The learned operators, determinised, act as the true ones on every reachable state."""
     mine = Task(learned, {o.name: o.type for o in task.problem.objects})
     states = sorted(reachable_states(task), key=sorted)
     assert len(states) > 10
@@ -204,3 +207,85 @@ def test_the_rule_mode_is_chosen_by_the_data_unless_the_caller_says(tmp_path):
     assert [str(r) for r in read_rules(tmp_path / "auto" / "rules.json")[0].rules] != [str(r) for r in direct.rules]
     with pytest.raises(UserError, match="rule learning mode"):
         learn_symbolic_model(ds, tmp_path / "x", seed=0, argv=[], progress=False, mode="plans")
+
+
+TRAYS = """(define (domain trays)
+  (:requirements :typing)
+  (:types sandwich tray place)
+  (:constants kitchen - place)
+  (:predicates (at ?t - tray ?p - place) (made ?s - sandwich) (ontray ?s - sandwich ?t - tray)
+               (served ?s - sandwich ?p - place))
+  (:action move :parameters (?t - tray ?p1 ?p2 - place)
+    :precondition (at ?t ?p1) :effect (and (not (at ?t ?p1)) (at ?t ?p2)))
+  (:action load :parameters (?s - sandwich ?t - tray)
+    :precondition (and (made ?s) (at ?t kitchen)) :effect (and (not (made ?s)) (ontray ?s ?t)))
+  (:action serve :parameters (?s - sandwich ?t - tray ?p - place)
+    :precondition (and (ontray ?s ?t) (at ?t ?p)) :effect (and (not (ontray ?s ?t)) (served ?s ?p))))"""
+TRAYS_PROBLEM = """(define (problem p) (:domain trays)
+  (:objects s1 s2 - sandwich t1 t2 - tray table1 table2 - place)
+  (:init (at t1 kitchen) (at t2 table1) (made s1) (made s2))
+  (:goal (and (served s1 table1) (served s2 table2))))"""
+LIFT = """(define (domain lift)
+  (:requirements :typing)
+  (:types passenger floor)
+  (:predicates (origin ?p - passenger ?f - floor) (destin ?p - passenger ?f - floor) (boarded ?p - passenger)
+               (served ?p - passenger) (lift-at ?f - floor))
+  (:action board :parameters (?f - floor ?p - passenger)
+    :precondition (and (lift-at ?f) (origin ?p ?f)) :effect (boarded ?p))
+  (:action depart :parameters (?f - floor ?p - passenger)
+    :precondition (and (lift-at ?f) (destin ?p ?f) (boarded ?p)) :effect (and (not (boarded ?p)) (served ?p)))
+  (:action move :parameters (?f1 ?f2 - floor)
+    :precondition (lift-at ?f1) :effect (and (not (lift-at ?f1)) (lift-at ?f2))))"""
+LIFT_PROBLEM = """(define (problem p) (:domain lift)
+  (:objects a b c - passenger f1 f2 f3 - floor)
+  (:init (lift-at f1) (origin a f1) (destin a f3) (origin b f2) (destin b f1) (origin c f3) (destin c f2))
+  (:goal (and (served a) (served b) (served c))))"""
+
+
+def _plans_of(domain: str, problem: str, n: int, seed: int):
+    """Random walks of a known domain with the steps that change nothing left out, as in plans
+    (a plan never boards a passenger twice): successful-only examples, and the true task."""
+    d = parse_domain(domain)
+    task = Task(d, parse_problem(problem, d))
+    ds = simulate_traces(task, n, 30, np.random.default_rng(seed))
+    ds.meta["types"] = {t.name: None for t in d.types}
+    return task, ds, [e for e in examples_from_dataset(ds) if e.changed]
+
+
+def test_a_constant_in_the_true_precondition_is_learned():
+    """``load`` needs its tray in the kitchen, a constant (PDDL ``:constants``): over the action's
+    arguments alone no context says it, and the operator would load trays anywhere."""
+    task, ds, ex = _plans_of(TRAYS, TRAYS_PROBLEM, 30, seed=0)
+    preds = {p: k for p, k in ds.predicates.items() if p not in ds.meta["types"]}
+    blind, _ = learn_from_successes(ex, ds.predicates, tuple(ds.meta["types"]), SuccessOptions(negative=False),
+                                    seed=0)
+    assert {str(l) for l in blind.rules[0].context if l.atom.predicate == "at"} == set()    # rules[0]: load
+    rules, _ = learn_from_successes(ex, ds.predicates, tuple(ds.meta["types"]), SuccessOptions(negative=False),
+                                    seed=0, constants=("kitchen",))   # positive only: the domain's language
+    ctx = {r.action.predicate: {str(l) for l in r.context if l.atom.predicate not in ds.meta["types"]}
+           for r in rules.rules}
+    assert ctx == {"load": {"(at ?x2 kitchen)", "(made ?x1)"}, "move": {"(at ?x1 ?x2)"},
+                   "serve": {"(at ?x2 ?x3)", "(ontray ?x1 ?x2)"}}
+    types = {t: None for t in ds.meta["types"]}
+    learned = operator_domain(rules, preds, types=types, noise="drop", constants={"kitchen": "place"})
+    assert "(:constants kitchen - place)" in str(learned)
+    _acts_as(task, determinize(learned, None, "most-likely")[0])
+
+
+def test_without_negative_preconditions_plans_give_the_true_operators():
+    """Plans never board a boarded passenger, so nothing contradicts ``(not (boarded ?p))`` in
+    ``board`` (the lift can be back at the origin with the passenger inside): the safe context
+    keeps it. In a language without negative preconditions (the domain's requirements lack
+    ``:negative-preconditions``) the contexts are the true preconditions exactly."""
+    task, ds, ex = _plans_of(LIFT, LIFT_PROBLEM, 40, seed=1)
+    types = tuple(ds.meta["types"])
+    safe, _ = learn_from_successes(ex, ds.predicates, types, seed=0)
+    board = next(r for r in safe.rules if r.action.predicate == "board")
+    assert "(not (boarded ?x2))" in {str(l) for l in board.context}
+    rules, _ = learn_from_successes(ex, ds.predicates, types, SuccessOptions(negative=False), seed=0)
+    ctx = {r.action.predicate: {str(l) for l in r.context if l.atom.predicate not in types} for r in rules.rules}
+    assert ctx == {"board": {"(lift-at ?x1)", "(origin ?x2 ?x1)"},
+                   "depart": {"(lift-at ?x1)", "(destin ?x2 ?x1)", "(boarded ?x2)"}, "move": {"(lift-at ?x1)"}}
+    preds = {p: k for p, k in ds.predicates.items() if p not in types}
+    learned = operator_domain(rules, preds, types={t: None for t in types}, noise="drop")
+    _acts_as(task, determinize(learned, None, "most-likely")[0])

@@ -234,12 +234,13 @@ def number(x: Fraction | int | float) -> str:
 
 
 def typed_list(items: tuple[Typed, ...]) -> list[str]:
-    """``?a ?b - block ?c``: consecutive names of one type share a ``- type`` tag."""
+    """``?a ?b - block ?c``: consecutive names of one type share a ``- type`` tag; ``object``
+    goes untagged only at the end (elsewhere PDDL would read the next group's tag for it too)."""
     out: list[str] = []
     for i, t in enumerate(items):
         out.append(t.name)
         last_of_group = i + 1 == len(items) or items[i + 1].type != t.type
-        if last_of_group and t.type != OBJECT:
+        if last_of_group and (t.type != OBJECT or i + 1 < len(items)):
             out += ["-", t.type]
     return out
 

@@ -33,10 +33,12 @@ OPERATOR_NOISE = ("no-change", "drop")
 def operator_domain(rules: RuleSet, predicates: Mapping[str, int], *, name: str = "learned",
                     types: Mapping[str, str | None] | None = None, noise: str = "no-change", decimals: int = 4,
                     signatures: Mapping[str, Sequence[Typed]] | None = None,
-                    parameters: Mapping[str, Sequence[str]] | None = None) -> Domain:
+                    parameters: Mapping[str, Sequence[str]] | None = None,
+                    constants: Mapping[str, str] | None = None) -> Domain:
     """The domain with one operator per action. ``types``: type -> parent type (None: ``object``);
     ``signatures``: typed parameters of predicates (default untyped); ``parameters``: parameter
-    names per action (default ``?x1 ..``), e.g. a reference domain's, so literals compare by text."""
+    names per action (default ``?x1 ..``), e.g. a reference domain's, so literals compare by text;
+    ``constants``: object -> type of the objects rules name (PDDL ``:constants``)."""
     if noise not in OPERATOR_NOISE:
         raise UserError(f"--noise: with --operators expected one of {', '.join(OPERATOR_NOISE)}, got {noise!r}")
     types = dict(types or {})
@@ -54,9 +56,10 @@ def operator_domain(rules: RuleSet, predicates: Mapping[str, int], *, name: str 
     sig = dict(signatures or {})
     preds = tuple(Predicate(p, tuple(sig.get(p, [Typed(f"?a{i + 1}") for i in range(k)])))
                   for p, k in sorted(predicates.items()) if p not in types)
-    domain = Domain(name, (), tuple(Typed(t, parent or OBJECT) for t, parent in sorted(types.items())), (),
-                    preds, tuple(actions), "learned rules as one operator per action (groundsym export-domain "
-                                           f"--operators, noise: {noise})")
+    domain = Domain(name, (), tuple(Typed(t, parent or OBJECT) for t, parent in sorted(types.items())),
+                    tuple(Typed(c, t or OBJECT) for c, t in sorted((constants or {}).items())), preds,
+                    tuple(actions), "learned rules as one operator per action (groundsym export-domain "
+                    f"--operators, noise: {noise})")
     return replace(domain, requirements=requirements(domain))
 
 

@@ -41,11 +41,11 @@ from typing import Sequence
 
 import numpy as np
 
-from ..logic import Atom, Literal
+from ..logic import Atom, Literal, is_variable
 from .contexts import atoms_over
 from .coverage import Coverage, Example, ExampleTable
 from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
-from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Rule, RuleSet, _bindings
+from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Outcome, Rule, RuleSet, _bindings
 from .outcomes import induce_outcomes
 
 #: unchanged pseudo-observations in the noise estimate: a few examples of a small problem say little
@@ -59,7 +59,9 @@ class SuccessOptions:
     fixes the frequency a context literal needs (None: chosen on held-out examples from
     ``thresholds``); ``holdout`` is the share of examples held out for that choice; ``slack`` the
     held-out log-likelihood (nats) a lower (more specific) threshold may lose; ``effect_share`` the share of the
-    examples where a lifted change could show in which it must show to be an effect."""
+    examples where a lifted change could show in which it must show to be an effect; ``negative``
+    offers negated context literals (False for a language without negative preconditions: a PDDL
+    domain whose requirements lack ``:negative-preconditions``, see :func:`learn_from_successes`)."""
 
     threshold: float | None = None
     thresholds: tuple[float, ...] = THRESHOLDS
@@ -71,6 +73,7 @@ class SuccessOptions:
     p_min_default: float = P_MIN_DEFAULT
     nochange_prior: float = 0.5
     prune: bool = True
+    negative: bool = True
 
 
 def has_failures(examples: Sequence[Example]) -> bool:
@@ -91,19 +94,31 @@ class _ActionData:
     reduced: list[Example] = field(default_factory=list)
     n_types: int = 0
     changes: tuple = ()                       # (examples, atoms, before, after) for the effects
+    effects: tuple = ()                       # masks over those atoms: (added, deleted)
 
 
 def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int], types: Sequence[str] = (),
-                         options: SuccessOptions = SuccessOptions(), *, seed: int = 0
-                         ) -> tuple[RuleSet, LearnReport]:
-    """One rule per action name: the frequency context, its induced outcomes, a default rule."""
+                         options: SuccessOptions = SuccessOptions(), *, seed: int = 0,
+                         constants: Sequence[str] = ()) -> tuple[RuleSet, LearnReport]:
+    """One rule per action name: the frequency context, its induced outcomes, a default rule.
+
+    ``constants``: objects a context may name beside the action's arguments (PDDL's
+    ``:constants``: childsnack's ``put_on_tray`` needs ``(at ?t kitchen)``); they are the same
+    object in every example, so a literal over them is as safe as one over the arguments.
+    ``options.negative`` False keeps every context positive: data of successful actions cannot
+    tell a negated precondition from a literal that plans merely never contradict (a plan never
+    boards a passenger twice), so where the domain's language has no negative preconditions
+    (its requirements lack ``:negative-preconditions``, as in every AMLGym domain) none is
+    offered; OffLAM (Lamanna et al. 2025) makes the same assumption for every domain."""
     types = frozenset(types)
     sig = _signatures(examples, types)
     groups: dict[tuple[str, int], list[Example]] = {}
     for e in examples:
         groups.setdefault((e.action.predicate, e.action.arity), []).append(e)
-    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig) for name, arity in sorted(groups)]
-    eps = _noise_rate(examples, types, sig)
+    consts = tuple(sorted(set(constants)))
+    data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig, consts, options.negative)
+            for name, arity in sorted(groups)]
+    eps = _noise_rate(examples, types, sig, consts)
     for d in data:                   # a change noise alone explains is no effect
         _reduce_all(d, max(options.effect_share, 3 * eps), types)
     if options.threshold is not None:
@@ -147,10 +162,10 @@ def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str
 
 
 def _action_data(name: str, arity: int, examples: list[Example], predicates: dict[str, int], types: frozenset,
-                 sig: dict) -> _ActionData:
+                 sig: dict, constants: tuple[str, ...] = (), negative: bool = True) -> _ActionData:
     variables = tuple(f"?x{i + 1}" for i in range(arity))
     fluents = {p: k for p, k in predicates.items() if p not in types}
-    atoms = atoms_over(variables, fluents, True)
+    atoms = atoms_over(variables + constants, fluents, True)
     kept = list(examples)        # also (move r1 a a): in PDDL parameters may repeat, and such an
     #                              example says "(not (at ?r ?to))" is no precondition
     lits = [Literal(Atom(t, (v,)), True) for t in sorted(types) for v in variables] + \
@@ -164,13 +179,13 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
         for j, a in enumerate(atoms):
             g = a.substitute(ground)
             before[i, j], after[i, j] = g in e.state, g in e.succ
-        typed = np.array([all(frozenset(kinds.get(ground[v], {"object"})) in sig.get((a.predicate, k), set())
+        typed = np.array([all(frozenset(kinds.get(ground.get(v, v), {"object"})) in sig.get((a.predicate, k), set())
                               for k, v in enumerate(a.args)) for a in atoms], dtype=bool)
         nt = len(types) * arity
         truth[i, :nt] = [ground[l.atom.args[0]] in {o for o, ks in kinds.items() if l.atom.predicate in ks}
                          for l in lits[:nt]]
         truth[i, nt::2] = before[i]
-        truth[i, nt + 1::2] = ~before[i] & typed
+        truth[i, nt + 1::2] = ~before[i] & typed & negative
     w = np.array([e.weight for e in kept], dtype=float)
     return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, (kept, atoms, before, after))
 
@@ -178,7 +193,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
 def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
     """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
     kept, atoms, before, after = d.changes
-    effects = _effects(atoms, before, after, d.weights, share)
+    effects = d.effects = _effects(atoms, before, after, d.weights, share)
     d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)
                  if len(set(e.action.args)) == len(e.action.args)]   # outcomes: NID's injective bindings
 
@@ -293,10 +308,12 @@ def _prune(ctx: list[Literal], types: set[str], states: list[frozenset], index: 
     states (state invariants, as mutexes): the operator a reader (and a benchmark) expects,
     ``pick-up: (clear ?x) (ontable ?x) (handempty)`` rather than also ``(not (holding ?x))``."""
     pos = tuple(l for l in ctx if l.positive and l.atom.predicate not in types)
-    if not pos or all(l.positive for l in ctx):
+    if not pos:
         return ctx
-    bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
-    out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
+    out = ctx
+    if not all(l.positive for l in ctx):
+        bound = [(by, list(_bindings(pos, state, {}, False, None, 10 ** 6))) for state, by in zip(states, index)]
+        out = [l for l in ctx if l.positive or not _implied(pos, l.atom, bound, tolerance)]
     return [l for l in out if not _mirrored(l, [l.atom for l in pos], index)]
 
 
@@ -309,7 +326,8 @@ def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
     return all((y, x) in set(by.get(a.predicate, ())) for by in index for x, y in by.get(a.predicate, ()))
 
 
-def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict) -> float:
+def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict, constants: tuple[str, ...] = ()
+                ) -> float:
     """The observation noise: in STRIPS an action changes only atoms over its own arguments, so
     an atom over other objects that differs between state and successor had an observation
     flipped; with flip rate ``r`` that happens to each well-typed atom with probability
@@ -333,7 +351,7 @@ def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict) -> flo
     changed = seen = 0.0
     for e in examples:
         kinds = _types_of(e.state, types)
-        args = set(e.action.args)
+        args = set(e.action.args) | set(constants)
         seen += e.weight * (atoms(e.objects, kinds) - atoms(tuple(sorted(args)), kinds))
         changed += e.weight * sum(1 for a in e.state ^ e.succ
                                   if a.predicate not in types and a.args and not set(a.args) <= args)
@@ -358,20 +376,17 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     accept = theta if o.threshold is not None else _accept(theta, eps, d.weights)
     stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0,
              "threshold": accept}
-    if not d.reduced:
+    if not len(d.weights):
         return None, DefaultRule(0.5), stats
     ctx = [l for l, m in zip(d.literals, _context(d.truth, d.weights, accept)) if m]
     if o.prune:
         ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, *index, eps)
     ctx = tuple(sorted(ctx))
-    merged: dict[tuple, float] = {}
-    for e in d.reduced:
-        key = (e.state, e.action, e.succ, e.objects)
-        merged[key] = merged.get(key, 0.0) + e.weight
-    table = ExampleTable([Example(*k, w) for k, w in merged.items()], {l.atom.predicate: l.atom.arity
-                                                                        for l in d.literals})
-    action = Atom(d.name, d.variables)
-    cov: Coverage = table.cover(action, ctx, True)
+    if not d.reduced:             # every example repeats an argument (tpp's levels): no injective
+        return _lifted_rule(d, ctx, accept), DefaultRule(0.5), {**stats, "rules": 1}   # binding for NID's outcomes
+    named = tuple(sorted({x for l in ctx for x in l.atom.args if not is_variable(x)}))
+    table, action, table_ctx = _table(d, ctx, named)
+    cov: Coverage = table.cover(action, table_ctx, True)
     if not len(cov) and accept < 1.0:   # no example meets the frequent literals together (noise, few
         return _fit_action(d, 1.0, replace(o, threshold=1.0), index, 0.0)   # examples): SAM's context
     rest = np.ones(len(table), dtype=bool)
@@ -381,8 +396,47 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     if not len(cov):
         return None, default, stats
     of = induce_outcomes(table, cov, o.alpha, o.p_min)
-    rule = Rule(action, ctx, of.outcomes, of.probs, of.noise, of.noise_changes)
+    back = {v: c for v, c in zip(action.args[len(d.variables):], named)}
+    outcomes = tuple(Outcome(tuple(l.substitute(back) for l in out.changes)) for out in of.outcomes)
+    rule = Rule(Atom(d.name, d.variables), ctx, outcomes, of.probs, of.noise, of.noise_changes)
     n = float(table.weights[cov.index].sum())
     fit = _smooth(RuleFit(rule, frozenset(cov.index.tolist()), of.loglik, n), o.nochange_prior)
     stats.update(rules=1, score=of.loglik - o.alpha * rule.complexity(), covered=n)
     return fit.rule, default, stats
+
+
+def _lifted_rule(d: _ActionData, ctx: tuple[Literal, ...], accept: float) -> Rule:
+    """SAM's rule where no example binds the action's arguments injectively (PDDL lets them
+    coincide, NID's outcome induction does not): one deterministic outcome, the lifted changes
+    that :func:`_effects` found and that hold afterwards in (at least ``accept`` of) the examples;
+    where arguments coincide a change fits several lifted atoms, and only the one that is an
+    effect holds after every step (tpp's ``(loaded ?p ?v ?l4)``, not ``(loaded ?p ?v ?l5)``)."""
+    _, atoms, _, after = d.changes
+    share = (d.weights @ after) / d.weights.sum()
+    adds, dels = d.effects
+    adds, dels = adds & (share >= accept - 1e-12), dels & (1.0 - share >= accept - 1e-12)
+    changes = [Literal(a, True) for a, m in zip(atoms, adds) if m] + \
+              [Literal(a, False) for a, m in zip(atoms, dels) if m]
+    return Rule(Atom(d.name, d.variables), ctx, (Outcome(tuple(changes)),), (1.0,), 0.0)
+
+
+def _table(d: _ActionData, ctx: tuple[Literal, ...], named: tuple[str, ...]
+           ) -> tuple[ExampleTable, Atom, tuple[Literal, ...]]:
+    """The action's reduced examples as a coverage table, with the action template and context
+    it is queried with. Constants the context names (``named``) become extra action arguments
+    bound to themselves in every example (the table binds variables only); an example whose own
+    argument is such a constant then has repeated arguments and stays uncovered (the default
+    rule's), as NID's injective bindings want. Atoms over constants the context does not name
+    are left out: they are no effect the operator can state over its parameters."""
+    cvars = tuple(f"?k{i + 1}" for i in range(len(named)))
+    merged: dict[tuple, float] = {}
+    for e in d.reduced:
+        objects = tuple(dict.fromkeys(e.objects + named))
+        known = set(objects)
+        state, succ = (frozenset(a for a in s if set(a.args) <= known) for s in (e.state, e.succ))
+        key = (state, Atom(e.action.predicate, e.action.args + named), succ, objects)
+        merged[key] = merged.get(key, 0.0) + e.weight
+    table = ExampleTable([Example(*k, w) for k, w in merged.items()], {l.atom.predicate: l.atom.arity
+                                                                        for l in d.literals})
+    ren = dict(zip(named, cvars))
+    return table, Atom(d.name, d.variables + cvars), tuple(l.substitute(ren) for l in ctx)
