@@ -45,9 +45,8 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "o1": (ObstructionSim, {"obstructions": 1}, 2, 1, "Obstruction2D-o1"),
     "o3": (ObstructionSim, {"obstructions": 3}, 2, 1, "Obstruction2D-o3"),
 }
-BUDGET = 3000            # KinDER's environment steps per episode
-MAX_DECISIONS = 60       # primitives per episode at most, by default (--max-primitives): a planner that
-                         # repeats a primitive that does nothing would otherwise never spend its budget
+BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
+NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
 SAMPLES = 200            # PRADA's sampled action sequences per decision (its default horizon, 4)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the issue's table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
@@ -95,24 +94,29 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
 # ----------------------------------------------------------------------------- planning
 
 def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
-                max_primitives: int = MAX_DECISIONS) -> dict:
-    """PRADA replanning after every primitive until solved, the step budget or ``max_primitives``;
-    ``frames`` collects an image of the start and of the scene after every primitive."""
+                max_primitives: int = NO_CAP) -> dict:
+    """PRADA replanning after every primitive until solved or KinDER's budget of environment steps
+    is spent (or ``max_primitives``, when not 0); ``frames`` collects an image of the start and of
+    the scene after every primitive. A primitive that takes no environment step (a StickButton2D
+    press of a button already pressed) is charged one, so an episode always ends."""
     scene = sim.reset(seed)
-    actions = []
+    actions, idle = [], 0
     while frames is not None and not frames:
         frames.append(sim.env.render())
-    while not sim.solved() and sim.env_steps < BUDGET and len(actions) < max_primitives:
+    while (not sim.solved() and sim.env_steps + idle < BUDGET
+           and (max_primitives == NO_CAP or len(actions) < max_primitives)):
         obs = Observation(scene.objects, tuple(sim.actions()), abstract(scene), scene, len(actions), 10)
         decision = planner.choose(obs)
+        before = sim.env_steps
         scene = sim.step(decision.action)
+        idle += sim.env_steps == before
         actions.append(str(decision.action))
         if frames is not None:
             frames.append(sim.env.render())
         planner.observe(decision.action, Observation(scene.objects, tuple(sim.actions()), abstract(scene),
                                                       scene, len(actions), 10))
     return {"seed": seed, "success": bool(sim.solved() and sim.env_steps <= BUDGET),
-            "env_steps": int(sim.env_steps), "actions": actions}
+            "env_steps": int(sim.env_steps), "idle_primitives": idle, "actions": actions}
 
 
 def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int) -> None:
@@ -124,8 +128,8 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: in
     for arm, (model, abstraction) in arms.items():
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
         old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
-        if old.get("max_primitives", MAX_DECISIONS) != max_primitives:
-            raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives', MAX_DECISIONS)}; "
+        if old.get("max_primitives") != max_primitives:
+            raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives')}; "
                              f"use that, or another --out")
         done = old["episodes"]
         pm = sim_planning_model(model, sim)
@@ -152,12 +156,12 @@ def picture(task: str, out: Path) -> Path:
 
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, 0)
-    done = json.loads((d / "episodes-learned.json").read_text())["episodes"]
-    k, ep = next((k, e) for k, e in enumerate(done) if e["success"])
+    record = json.loads((d / "episodes-learned.json").read_text())
+    k, ep = next((k, e) for k, e in enumerate(record["episodes"]) if e["success"])
     sim, model = cls(**opts), load_model(d / "model")
     planner = make_planner("prada", sim_planning_model(model, sim), {"samples": str(SAMPLES)}, ep["seed"])
     frames: list = []
-    replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames)
+    replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames, record["max_primitives"])
     assert replay["actions"] == ep["actions"], "the replay differs from the recorded episode"
     fig, axes = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 2.6))
     for ax, img, title in zip(np.atleast_1d(axes), frames, ["start", *ep["actions"]]):
@@ -228,8 +232,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--evals", type=int, default=20000)
     ap.add_argument("--episodes", type=int, default=50)
-    ap.add_argument("--max-primitives", type=int, default=MAX_DECISIONS,
-                    help="primitives per episode at most (the budget of 3,000 env steps holds too)")
+    ap.add_argument("--max-primitives", type=int, default=NO_CAP,
+                    help="primitives per episode at most; 0 (default): none, only KinDER's 3,000 env steps")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
