@@ -47,7 +47,9 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
 }
 BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
 NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
-SAMPLES = 200            # PRADA's sampled action sequences per decision (its default horizon, 4)
+PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
+         "actions": "legal",     # only primitives the world offers (typed arguments: pick(S) of a stick)
+         "references": "unique"}  # NID's semantics of a rule's references (docs/planning.md)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
     "b3": {"bilevel planning": 0.30, "diffusion policy": 0.32, "PPO": 0.00, "LLM planning": 0.01},
@@ -124,7 +126,8 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: in
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
     arms = {"learned": (load_model(d / "model"), lambda m: m.symbols.abstract_scene),
-            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth))}
+            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
+            "random": (None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
     for arm, (model, abstraction) in arms.items():
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
         old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
@@ -136,7 +139,7 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: in
         for k, ep_seed in enumerate(episode_seeds(1000 + seed, episodes)):
             if k < len(done):
                 continue
-            planner = make_planner("prada", pm, {"samples": str(SAMPLES)}, ep_seed)
+            planner = make_planner("prada", pm, PRADA, ep_seed) if model else make_planner("random", pm, {}, ep_seed)
             t0 = time.process_time()
             done.append({**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
                          "cpu_s": round(time.process_time() - t0, 2)})
@@ -159,7 +162,7 @@ def picture(task: str, out: Path) -> Path:
     record = json.loads((d / "episodes-learned.json").read_text())
     k, ep = next((k, e) for k, e in enumerate(record["episodes"]) if e["success"])
     sim, model = cls(**opts), load_model(d / "model")
-    planner = make_planner("prada", sim_planning_model(model, sim), {"samples": str(SAMPLES)}, ep["seed"])
+    planner = make_planner("prada", sim_planning_model(model, sim), PRADA, ep["seed"])
     frames: list = []
     replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames, record["max_primitives"])
     assert replay["actions"] == ep["actions"], "the replay differs from the recorded episode"

@@ -78,7 +78,7 @@ class Primitive:
         return (t,) if isinstance(t, str) else tuple(t)
 
 
-class _Chained:
+class Chained:
     """Runs ``first`` to its end, then the controller ``then`` builds from the state reached."""
 
     def __init__(self, first: Controller, then: Callable[[ObjectState], Controller]):
@@ -97,7 +97,7 @@ def chain(first: MakeController, then: MakeController) -> MakeController:
     """A primitive made of two skills run one after the other (e.g. pick, then place): the second
     is built from the state the first ends in, so its parameters see where the first got to."""
     def make(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Controller:
-        return _Chained(first(state, args, rng), lambda reached: then(reached, args, rng))
+        return Chained(first(state, args, rng), lambda reached: then(reached, args, rng))
     return make
 
 
