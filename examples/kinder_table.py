@@ -190,12 +190,13 @@ def success_png(out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = ["PRADA learned", "PRADA true relations", "bilevel planning", "diffusion policy", "PPO", "LLM planning"]
+    ours = {"PRADA learned": "learned", "PRADA true relations": "true-relations", "random primitives": "random"}
+    names = [*ours, "bilevel planning", "diffusion policy", "PPO", "LLM planning"]
     tasks = [t for t in TASKS if success_rates(out, t, "learned")]
     fig, ax = plt.subplots(figsize=(8, 3.2))
     width = 0.8 / len(names)
     for i, name in enumerate(names):
-        vals = [np.mean(success_rates(out, t, "learned" if i == 0 else "true-relations")) if i < 2
+        vals = [(np.mean(success_rates(out, t, ours[name]) or [np.nan])) if name in ours
                 else PUBLISHED.get(t, {}).get(name, np.nan) for t in tasks]
         ax.bar(np.arange(len(tasks)) + i * width, vals, width, label=name)
     ax.set_xticks(np.arange(len(tasks)) + 0.4 - width / 2, [TASKS[t][4] for t in tasks])
@@ -208,21 +209,36 @@ def success_png(out: Path) -> Path:
 
 
 def table(out: Path) -> str:
-    lines = ["| task | seeds | F1 per relation (mean over seeds) | PRADA learned | PRADA true relations | published |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| task | seeds | F1 per relation (mean over seeds) | PRADA learned | PRADA true relations "
+             "| random primitives | published |", "|---|---|---|---|---|---|---|"]
     for task, (cls, *_rest, kid) in TASKS.items():
         seeds = sorted(out.glob(f"{task}/seed-*/f1.json"))
         if not seeds:
             continue
         f1 = [json.loads(p.read_text()) for p in seeds]
-        means = {r: np.mean([f[r] for f in f1]) for r in cls.truth_predicates}
+        means = {r: np.mean([f[r] for f in f1 if r in f]) for r in cls.truth_predicates}
         cells = []
-        for arm in ("learned", "true-relations"):
+        for arm in ("learned", "true-relations", "random"):
             wins = success_rates(out, task, arm)
             cells.append(f"{np.mean(wins):.2f} ({len(wins)} episodes)" if wins else "-")
         pub = ", ".join(f"{k} {v:.2f}" for k, v in PUBLISHED.get(task, {}).items()) or "-"
         lines.append(f"| {kid} | {len(f1)} | " + ", ".join(f"{r} {v:.2f}" for r, v in means.items())
-                     + f" | {cells[0]} | {cells[1]} | {pub} |")
+                     + f" | {' | '.join(cells)} | {pub} |")
+    return "\n".join(lines)
+
+
+def per_seed(out: Path) -> str:
+    """Per task and arm: the success of each seed and the median environment steps of a solved episode."""
+    lines = []
+    for task in TASKS:
+        for arm in ("learned", "true-relations", "random"):
+            runs = [json.loads(p.read_text())["episodes"] for p in sorted(out.glob(f"{task}/seed-*/episodes-{arm}.json"))]
+            if not runs:
+                continue
+            steps = [e["env_steps"] for r in runs for e in r if e["success"]]
+            rates = ", ".join(f"{np.mean([e['success'] for e in r]):.2f} ({len(r)})" for r in runs)
+            lines.append(f"- {task} {arm}: per seed {rates}; median env steps of a solved episode "
+                         f"{np.median(steps) if steps else float('nan'):.0f}")
     return "\n".join(lines)
 
 
@@ -241,6 +257,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.what == "table":
         print(table(args.out))
+        print(per_seed(args.out))
         print(f"wrote {success_png(args.out)}", file=sys.stderr)
         return 0
     if args.what == "picture":

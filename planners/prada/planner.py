@@ -60,7 +60,7 @@ class PradaPlanner:
                "e.g. with object types), at every step of a sequence"),
         Option("references", one_of("rivals", "unique"), "rivals", "rivals: every binding of a rule's "
                "references is a ground rule that rivals the others; unique: NID's semantics, a rule "
-               "covers only when exactly one binding does (docs/planning.md)"),
+               "covers only when exactly one binding does (docs/kinder.md)"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
