@@ -242,11 +242,19 @@ def per_seed(out: Path) -> str:
     return "\n".join(lines)
 
 
+def seed_range(text: str) -> range:
+    first, _, last = text.partition("-")
+    if not (first.isdigit() and (not last or last.isdigit())):
+        raise argparse.ArgumentTypeError(f"expected N or A-B, got {text!r}")
+    return range(int(first), int(last) + 1) if last else range(int(first))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
     ap.add_argument("--task", choices=sorted(TASKS), default="b1")
-    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--seeds", type=seed_range, default=range(5),
+                    help="N (seeds 0 to N-1) or A-B (seeds A to B): runs of other seeds may go on beside")
     ap.add_argument("--traces", type=int, default=50)
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--evals", type=int, default=20000)
@@ -263,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.what == "picture":
         print(f"wrote {picture(args.task, args.out)}")
         return 0
-    for seed in range(args.seeds):
+    for seed in args.seeds:
         if args.what == "symbols":
             f1 = learn_seed(args.task, seed, args.out, args.traces, args.length, args.evals)
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
