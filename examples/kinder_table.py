@@ -121,7 +121,7 @@ def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
             "env_steps": int(sim.env_steps), "idle_primitives": idle, "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int) -> None:
+def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int) -> None:
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
@@ -136,7 +136,8 @@ def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: in
                              f"use that, or another --out")
         done = old["episodes"]
         pm = sim_planning_model(model, sim)
-        for k, ep_seed in enumerate(episode_seeds(1000 + seed, episodes)):
+        for k, ep_seed in enumerate(episode_seeds(1000 + seed, min(episodes, random_episodes) if model is None
+                                                  else episodes)):
             if k < len(done):
                 continue
             planner = make_planner("prada", pm, PRADA, ep_seed) if model else make_planner("random", pm, {}, ep_seed)
@@ -261,6 +262,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--episodes", type=int, default=50)
     ap.add_argument("--max-primitives", type=int, default=NO_CAP,
                     help="primitives per episode at most; 0 (default): none, only KinDER's 3,000 env steps")
+    ap.add_argument("--random-episodes", type=int, default=10,
+                    help="episodes of the random-primitive arm per seed (the first of the same episode seeds)")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
@@ -277,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives)
+            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes)
     return 0
 
 
