@@ -45,10 +45,12 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "o1": (ObstructionSim, {"obstructions": 1}, 2, 1, "Obstruction2D-o1"),
     "o3": (ObstructionSim, {"obstructions": 3}, 2, 1, "Obstruction2D-o3"),
 }
-BUDGET = 3000            # KinDER's environment steps per episode
-MAX_DECISIONS = 60       # primitives per episode at most, by default (--max-primitives): a planner that
-                         # repeats a primitive that does nothing would otherwise never spend its budget
-SAMPLES = 200            # PRADA's sampled action sequences per decision (its default horizon, 4)
+BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
+NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
+PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
+         "actions": "legal",     # only primitives the world offers (typed arguments: pick(S) of a stick)
+         "references": "unique",  # NID's semantics of a rule's references (docs/kinder.md)
+         "retries": "1"}          # a primitive that changed nothing is not tried a third time there
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the issue's table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
     "b3": {"bilevel planning": 0.30, "diffusion policy": 0.32, "PPO": 0.00, "LLM planning": 0.01},
@@ -95,44 +97,51 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
 # ----------------------------------------------------------------------------- planning
 
 def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
-                max_primitives: int = MAX_DECISIONS) -> dict:
-    """PRADA replanning after every primitive until solved, the step budget or ``max_primitives``;
-    ``frames`` collects an image of the start and of the scene after every primitive."""
+                max_primitives: int = NO_CAP) -> dict:
+    """PRADA replanning after every primitive until solved or KinDER's budget of environment steps
+    is spent (or ``max_primitives``, when not 0); ``frames`` collects an image of the start and of
+    the scene after every primitive. A primitive that takes no environment step (a StickButton2D
+    press of a button already pressed) is charged one, so an episode always ends."""
     scene = sim.reset(seed)
-    actions = []
+    actions, idle = [], 0
     while frames is not None and not frames:
         frames.append(sim.env.render())
-    while not sim.solved() and sim.env_steps < BUDGET and len(actions) < max_primitives:
+    while (not sim.solved() and sim.env_steps + idle < BUDGET
+           and (max_primitives == NO_CAP or len(actions) < max_primitives)):
         obs = Observation(scene.objects, tuple(sim.actions()), abstract(scene), scene, len(actions), 10)
         decision = planner.choose(obs)
+        before = sim.env_steps
         scene = sim.step(decision.action)
+        idle += sim.env_steps == before
         actions.append(str(decision.action))
         if frames is not None:
             frames.append(sim.env.render())
         planner.observe(decision.action, Observation(scene.objects, tuple(sim.actions()), abstract(scene),
                                                       scene, len(actions), 10))
     return {"seed": seed, "success": bool(sim.solved() and sim.env_steps <= BUDGET),
-            "env_steps": int(sim.env_steps), "actions": actions}
+            "env_steps": int(sim.env_steps), "idle_primitives": idle, "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int) -> None:
+def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int) -> None:
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
     arms = {"learned": (load_model(d / "model"), lambda m: m.symbols.abstract_scene),
-            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth))}
+            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
+            "random": (None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
     for arm, (model, abstraction) in arms.items():
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
         old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
-        if old.get("max_primitives", MAX_DECISIONS) != max_primitives:
-            raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives', MAX_DECISIONS)}; "
+        if old.get("max_primitives") != max_primitives:
+            raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives')}; "
                              f"use that, or another --out")
         done = old["episodes"]
         pm = sim_planning_model(model, sim)
-        for k, ep_seed in enumerate(episode_seeds(1000 + seed, episodes)):
+        for k, ep_seed in enumerate(episode_seeds(1000 + seed, min(episodes, random_episodes) if model is None
+                                                  else episodes)):
             if k < len(done):
                 continue
-            planner = make_planner("prada", pm, {"samples": str(SAMPLES)}, ep_seed)
+            planner = make_planner("prada", pm, PRADA, ep_seed) if model else make_planner("random", pm, {}, ep_seed)
             t0 = time.process_time()
             done.append({**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
                          "cpu_s": round(time.process_time() - t0, 2)})
@@ -152,12 +161,12 @@ def picture(task: str, out: Path) -> Path:
 
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, 0)
-    done = json.loads((d / "episodes-learned.json").read_text())["episodes"]
-    k, ep = next((k, e) for k, e in enumerate(done) if e["success"])
+    record = json.loads((d / "episodes-learned.json").read_text())
+    k, ep = next((k, e) for k, e in enumerate(record["episodes"]) if e["success"])
     sim, model = cls(**opts), load_model(d / "model")
-    planner = make_planner("prada", sim_planning_model(model, sim), {"samples": str(SAMPLES)}, ep["seed"])
+    planner = make_planner("prada", sim_planning_model(model, sim), PRADA, ep["seed"])
     frames: list = []
-    replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames)
+    replay = run_episode(sim, planner, model.symbols.abstract_scene, ep["seed"], frames, record["max_primitives"])
     assert replay["actions"] == ep["actions"], "the replay differs from the recorded episode"
     fig, axes = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 2.6))
     for ax, img, title in zip(np.atleast_1d(axes), frames, ["start", *ep["actions"]]):
@@ -183,12 +192,13 @@ def success_png(out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = ["PRADA learned", "PRADA true relations", "bilevel planning", "diffusion policy", "PPO", "LLM planning"]
+    ours = {"PRADA learned": "learned", "PRADA true relations": "true-relations", "random primitives": "random"}
+    names = [*ours, "bilevel planning", "diffusion policy", "PPO", "LLM planning"]
     tasks = [t for t in TASKS if success_rates(out, t, "learned")]
     fig, ax = plt.subplots(figsize=(8, 3.2))
     width = 0.8 / len(names)
     for i, name in enumerate(names):
-        vals = [np.mean(success_rates(out, t, "learned" if i == 0 else "true-relations")) if i < 2
+        vals = [(np.mean(success_rates(out, t, ours[name]) or [np.nan])) if name in ours
                 else PUBLISHED.get(t, {}).get(name, np.nan) for t in tasks]
         ax.bar(np.arange(len(tasks)) + i * width, vals, width, label=name)
     ax.set_xticks(np.arange(len(tasks)) + 0.4 - width / 2, [TASKS[t][4] for t in tasks])
@@ -201,51 +211,77 @@ def success_png(out: Path) -> Path:
 
 
 def table(out: Path) -> str:
-    lines = ["| task | seeds | F1 per relation (mean over seeds) | PRADA learned | PRADA true relations | published |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| task | seeds | F1 per relation (mean over seeds) | PRADA learned | PRADA true relations "
+             "| random primitives | published |", "|---|---|---|---|---|---|---|"]
     for task, (cls, *_rest, kid) in TASKS.items():
         seeds = sorted(out.glob(f"{task}/seed-*/f1.json"))
         if not seeds:
             continue
         f1 = [json.loads(p.read_text()) for p in seeds]
-        means = {r: np.mean([f[r] for f in f1]) for r in cls.truth_predicates}
+        means = {r: np.mean([f[r] for f in f1 if r in f]) for r in cls.truth_predicates}
         cells = []
-        for arm in ("learned", "true-relations"):
+        for arm in ("learned", "true-relations", "random"):
             wins = success_rates(out, task, arm)
             cells.append(f"{np.mean(wins):.2f} ({len(wins)} episodes)" if wins else "-")
         pub = ", ".join(f"{k} {v:.2f}" for k, v in PUBLISHED.get(task, {}).items()) or "-"
         lines.append(f"| {kid} | {len(f1)} | " + ", ".join(f"{r} {v:.2f}" for r, v in means.items())
-                     + f" | {cells[0]} | {cells[1]} | {pub} |")
+                     + f" | {' | '.join(cells)} | {pub} |")
     return "\n".join(lines)
+
+
+def per_seed(out: Path) -> str:
+    """Per task and arm: the success of each seed and the median environment steps of a solved episode."""
+    lines = []
+    for task in TASKS:
+        for arm in ("learned", "true-relations", "random"):
+            runs = [json.loads(p.read_text())["episodes"] for p in sorted(out.glob(f"{task}/seed-*/episodes-{arm}.json"))]
+            if not runs:
+                continue
+            steps = [e["env_steps"] for r in runs for e in r if e["success"]]
+            rates = ", ".join(f"{np.mean([e['success'] for e in r]):.2f} ({len(r)})" for r in runs)
+            lines.append(f"- {task} {arm}: per seed {rates}; median env steps of a solved episode "
+                         f"{np.median(steps) if steps else float('nan'):.0f}")
+    return "\n".join(lines)
+
+
+def seed_range(text: str) -> range:
+    first, _, last = text.partition("-")
+    if not (first.isdigit() and (not last or last.isdigit())):
+        raise argparse.ArgumentTypeError(f"expected N or A-B, got {text!r}")
+    return range(int(first), int(last) + 1) if last else range(int(first))
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
     ap.add_argument("--task", choices=sorted(TASKS), default="b1")
-    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--seeds", type=seed_range, default=range(5),
+                    help="N (seeds 0 to N-1) or A-B (seeds A to B): runs of other seeds may go on beside")
     ap.add_argument("--traces", type=int, default=50)
     ap.add_argument("--length", type=int, default=10)
     ap.add_argument("--evals", type=int, default=20000)
     ap.add_argument("--episodes", type=int, default=50)
-    ap.add_argument("--max-primitives", type=int, default=MAX_DECISIONS,
-                    help="primitives per episode at most (the budget of 3,000 env steps holds too)")
+    ap.add_argument("--max-primitives", type=int, default=NO_CAP,
+                    help="primitives per episode at most; 0 (default): none, only KinDER's 3,000 env steps")
+    ap.add_argument("--random-episodes", type=int, default=10,
+                    help="episodes of the random-primitive arm per seed (the first of the same episode seeds)")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
         print(table(args.out))
+        print(per_seed(args.out))
         print(f"wrote {success_png(args.out)}", file=sys.stderr)
         return 0
     if args.what == "picture":
         print(f"wrote {picture(args.task, args.out)}")
         return 0
-    for seed in range(args.seeds):
+    for seed in args.seeds:
         if args.what == "symbols":
             f1 = learn_seed(args.task, seed, args.out, args.traces, args.length, args.evals)
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives)
+            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes)
     return 0
 
 

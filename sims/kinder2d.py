@@ -11,15 +11,19 @@ object-centric state. Two of its kinematic-2D tasks run here through the generic
   (graded: KinDER's own reward, -1 per step until all are pressed, says nothing to random traces
   until the last button).
 - ``--sim kinder-obstruction`` (``obstructions=1`` is Obstruction2D-o1, ``3`` o3): put the target
-  block on the target surface, moving the obstructions out of the way. Primitives ``pick(X)``,
-  ``placeOnTarget(X)``, ``placeOnTable(X)`` for a block X. Reward 1 when the target block is on
-  the surface (KinDER's success), else 0.
+  block on the target surface, moving the obstructions out of the way. Primitives
+  ``putOnTable(X)`` and ``putOnTarget(X, S)`` for a block X and the surface S, each a pick and a
+  place run as one skill (:func:`sims.object_centric.chain`): with pick and place apart, the
+  task's plan is four primitives long and 500 random ones never reached the goal, so no reward
+  model could learn it (docs/kinder.md). Reward 1 when the target block is on the surface
+  (KinDER's success), else 0.
 
 What the learner sees per object (the robot, walls and table are not objects of the scene): the
 centre ``x, y``, the size ``w, h``, the colour's green channel ``green`` (buttons turn green when
 pressed) and ``tip``, the distance from the robot's vacuum to the object (0 when touching).
 Ground truth (evaluation only), computed here from KinDER's state with the relations its tasks are
-written in: ``pressed(B)``, ``onTable(B)``, ``holding(X)``, ``on(X, S)``, ``blocking(X)``.
+written in: ``pressed(B)``, ``onTable(B)``, ``holding(X)`` (StickButton2D), ``on(X, S)``,
+``blocking(X)``, ``targetBlock(X)`` (KinDER's type of the block to place; Obstruction2D).
 docs/kinder.md says what the world lacks (released blocks stay where they are: nothing falls).
 """
 
@@ -36,7 +40,7 @@ from groundsym.options import Option
 
 from .kinder2d_skills import (ROBOT, Script, arm_to, drive_to, rect_centre, set_vacuum, tool_tip,
                               turn_to, until)
-from .object_centric import ObjectState, Primitive, WorldSpec, sim_class
+from .object_centric import Chained, Controller, ObjectState, Primitive, WorldSpec, chain, sim_class
 
 FEATURES = ("x", "y", "w", "h", "green", "tip")
 PRESSED_GREEN = 0.9            # KinDER's pressed button colour (0, 0.9, 0)
@@ -49,6 +53,7 @@ BASE_MAX_Y = TABLE_EDGE_Y - 0.101
 TABLE_TOP_Y = 0.1              # Obstruction2D: table top
 WORLD_W = (1 + 5 ** 0.5) / 2   # Obstruction2D width
 TRAVEL_Y = 0.8                 # Obstruction2D: the base moves sideways at this height
+BLOCK_TYPES = ("target_block", "rectangle")
 
 
 def make_kinder_env(env_id: str) -> Any:
@@ -136,8 +141,8 @@ def obstruction_truth(state: ObjectState) -> Iterable[Atom]:
     sx0 = state.get(surface, "x")
     sx1 = sx0 + state.get(surface, "width")
     for b in _blocks(state):
-        if holding(state, b):
-            yield Atom("holding", (b,))
+        if state.types[b] == "target_block":
+            yield Atom("targetBlock", (b,))
         if is_on(state, b, surface):
             yield Atom("on", (b, surface))
         cx, _ = rect_centre(state, b)
@@ -203,32 +208,47 @@ def pick_block(state: ObjectState, args: tuple[str, ...], rng: np.random.Generat
                    drive_to(None, TRAVEL_Y)], vacuum=state.get(ROBOT, "vacuum"))
 
 
-def _put_down(block: str, target_cx: float, vacuum: float) -> Script:
-    """Carry the held block over ``target_cx``, lower it onto the table level, release, go up."""
+def _lower(block: str, target_cx: float, vacuum: float) -> Script:
+    """Carry the held block over ``target_cx`` and lower it toward the table level."""
     def x(s: ObjectState) -> float:
         return s.get(ROBOT, "x") + target_cx - rect_centre(s, block)[0]
 
     def y(s: ObjectState) -> float:
         return s.get(ROBOT, "y") - (s.get(block, "y") - (TABLE_TOP_Y + 0.003))
-    return Script([drive_to(None, TRAVEL_Y), drive_to(x, None), drive_to(None, y), set_vacuum(False),
-                   drive_to(None, TRAVEL_Y)], vacuum=vacuum)
+    return Script([drive_to(None, TRAVEL_Y), drive_to(x, None), drive_to(None, y)], vacuum=vacuum)
 
 
-def place_on_target(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Script:
-    """Put the held block down on a random point of the target surface (nothing if not held)."""
-    block = args[0]
+def _put_down(state: ObjectState, block: str, target_cx: float) -> Controller:
+    """Lower the held block over ``target_cx`` and release it there if it reached the table level;
+    if something stopped it short (a block on the spot), carry it back over where it was picked
+    and release it there instead. Nothing falls in this world (docs/kinder.md): a block let go
+    where its descent stopped would hang in the air over the other and keep it from being picked."""
+    vacuum, home = state.get(ROBOT, "vacuum"), rect_centre(state, block)[0]
+
+    def release(reached: ObjectState, back_to: float | None) -> Controller:
+        if reached.get(block, "y") < TABLE_TOP_Y + 0.01 or back_to is None:
+            return Script([set_vacuum(False), drive_to(None, TRAVEL_Y)], vacuum=vacuum)
+        return Chained(_lower(block, back_to, vacuum), lambda again: release(again, None))
+    return Chained(_lower(block, target_cx, vacuum), lambda reached: release(reached, home))
+
+
+def place_on_target(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Controller:
+    """Put the held block ``args[0]`` down on a random point of the surface ``args[1]`` (if the
+    pick before it missed, only switch the vacuum off)."""
+    block, surface = args
     if not holding(state, block):
-        return Script([])
-    sx, sw = state.get("target_surface", "x"), state.get("target_surface", "width")
+        return Script([set_vacuum(False)])
+    sx, sw = state.get(surface, "x"), state.get(surface, "width")
     slack = max(sw - state.get(block, "width"), 0.0) / 2
-    return _put_down(block, sx + sw / 2 + 0.8 * slack * rng.uniform(-1, 1), state.get(ROBOT, "vacuum"))
+    return _put_down(state, block, sx + sw / 2 + 0.8 * slack * rng.uniform(-1, 1))
 
 
-def place_on_table(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Script:
-    """Put the held block down on a free random spot of the table off the target surface."""
+def place_on_table(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Controller:
+    """Put the held block down on a free random spot of the table off the target surface (if the
+    pick before it missed, only switch the vacuum off)."""
     block = args[0]
     if not holding(state, block):
-        return Script([])
+        return Script([set_vacuum(False)])
     half = state.get(block, "width") / 2
     taken = [(state.get("target_surface", "x"), state.get("target_surface", "x") + state.get("target_surface", "width"))]
     taken += [(rect_centre(state, o)[0] - state.get(o, "width") / 2, rect_centre(state, o)[0] + state.get(o, "width") / 2)
@@ -236,8 +256,8 @@ def place_on_table(state: ObjectState, args: tuple[str, ...], rng: np.random.Gen
     for _ in range(100):
         cx = rng.uniform(0.1 + half, WORLD_W - 0.1 - half)
         if all(cx + half + 0.01 < lo or cx - half - 0.01 > hi for lo, hi in taken):
-            return _put_down(block, cx, state.get(ROBOT, "vacuum"))
-    return Script([])
+            return _put_down(state, block, cx)
+    return _put_down(state, block, rect_centre(state, block)[0])      # no free spot: back down
 
 
 # ----------------------------------------------------------------------------- the two worlds
@@ -277,11 +297,11 @@ OBSTRUCTION = WorldSpec(
     make_env=lambda o: make_kinder_env(f"kinder/Obstruction2D-o{_variant(o, 'obstructions', OBSTRUCTION_VARIANTS)}-v0"),
     read_state=read_kinder_state, feature_names=FEATURES,
     type_features={"target_block": rect_features, "rectangle": rect_features, "target_surface": rect_features},
-    primitives=(Primitive("pick", (("target_block", "rectangle"),), pick_block),
-                Primitive("placeOnTarget", (("target_block", "rectangle"),), place_on_target),
-                Primitive("placeOnTable", (("target_block", "rectangle"),), place_on_table)),
+    primitives=(Primitive("putOnTable", (BLOCK_TYPES,), chain(pick_block, place_on_table), max_steps=400),
+                Primitive("putOnTarget", (BLOCK_TYPES, "target_surface"), chain(pick_block, place_on_target),
+                          max_steps=400)),
     reward=target_on_surface, truth=obstruction_truth,
-    truth_predicates={"holding": 1, "on": 2, "blocking": 1},
+    truth_predicates={"on": 2, "blocking": 1, "targetBlock": 1},
     success=lambda s, terminated: is_on(s, "target_block", "target_surface"),
     episode_length=10, gamma=0.95,
     options=(Option("obstructions", int, 1, "number of obstructions: KinDER's variants 0 ... 4 (o0 ... o4)"),),

@@ -55,6 +55,9 @@ class Controller(Protocol):
     def act(self, state: ObjectState) -> np.ndarray | None: ...
 
 
+MakeController = Callable[[ObjectState, tuple[str, ...], np.random.Generator], Controller]
+
+
 @dataclass(frozen=True)
 class Primitive:
     """An object-parameterised skill: ``arg_types[k]`` is the object type (or a tuple of types)
@@ -62,7 +65,7 @@ class Primitive:
 
     name: str
     arg_types: tuple[str | tuple[str, ...], ...]
-    make: Callable[[ObjectState, tuple[str, ...], np.random.Generator], Controller]
+    make: MakeController
     max_steps: int = 300
 
     @property
@@ -73,6 +76,29 @@ class Primitive:
         """The object types argument ``k`` may be."""
         t = self.arg_types[k]
         return (t,) if isinstance(t, str) else tuple(t)
+
+
+class Chained:
+    """Runs ``first`` to its end, then the controller ``then`` builds from the state reached."""
+
+    def __init__(self, first: Controller, then: Callable[[ObjectState], Controller]):
+        self.current: Controller = first
+        self.then: Callable[[ObjectState], Controller] | None = then
+
+    def act(self, state: ObjectState) -> np.ndarray | None:
+        action = self.current.act(state)
+        if action is None and self.then is not None:
+            self.current, self.then = self.then(state), None
+            action = self.current.act(state)
+        return action
+
+
+def chain(first: MakeController, then: MakeController) -> MakeController:
+    """A primitive made of two skills run one after the other (e.g. pick, then place): the second
+    is built from the state the first ends in, so its parameters see where the first got to."""
+    def make(state: ObjectState, args: tuple[str, ...], rng: np.random.Generator) -> Controller:
+        return Chained(first(state, args, rng), lambda reached: then(reached, args, rng))
+    return make
 
 
 FeatureMap = Callable[[ObjectState, str], Sequence[float]]

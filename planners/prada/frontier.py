@@ -24,13 +24,35 @@ def rule_probabilities(g: Grounding, B: np.ndarray, min_prob: float = RULE_MIN_P
     lit = np.where(g.sign, lit, 1.0 - lit)
     phi = lit.prod(axis=2)
     phi[phi < min_prob] = 0.0
-    z = 1.0 - phi
+    if g.family is not None:
+        return _unique_reference_probabilities(g, phi)
+    return phi * _none_of_the_others(phi, g.starts, g.rule_group)
+
+
+def _none_of_the_others(p: np.ndarray, starts: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """For each column, the product of ``1 - p`` over the other columns of its segment (segments
+    begin at ``starts``; ``group`` maps a column to its segment), in log space with zero counts, so
+    a certain rival gives exactly 0."""
+    z = 1.0 - p
     zero = z <= 1e-12
     logz = np.log(np.where(zero, 1.0, z))
-    seg_log = np.add.reduceat(logz, g.starts, axis=1)[:, g.rule_group]
-    seg_zero = np.add.reduceat(zero.astype(np.int64), g.starts, axis=1)[:, g.rule_group]
-    others_zero = seg_zero - zero
-    return phi * np.exp(seg_log - logz) * (others_zero == 0)
+    seg_log = np.add.reduceat(logz, starts, axis=1)[:, group]
+    seg_zero = np.add.reduceat(zero.astype(np.int64), starts, axis=1)[:, group]
+    return np.exp(seg_log - logz) * (seg_zero - zero == 0)
+
+
+def _unique_reference_probabilities(g: Grounding, phi: np.ndarray) -> np.ndarray:
+    """NID's semantics with references: a rule covers when exactly one binding of its references
+    does (a binding holds and its siblings, the other bindings for the same action, do not), and
+    it applies when no other rule of the action covers."""
+    fam = g.family
+    fam_starts = np.flatnonzero(np.r_[True, fam[1:] != fam[:-1]])
+    alone = phi * _none_of_the_others(phi, fam_starts, fam)           # this binding and no sibling
+    covers = np.add.reduceat(alone, fam_starts, axis=1)                # (N, F): the rule covers
+    fam_action = g.rule_group[fam_starts]
+    act_starts = np.flatnonzero(np.r_[True, fam_action[1:] != fam_action[:-1]])
+    act_of_fam = np.cumsum(np.r_[False, fam_action[1:] != fam_action[:-1]])
+    return alone * _none_of_the_others(covers, act_starts, act_of_fam)[:, fam]
 
 
 def action_weights(g: Grounding, U: np.ndarray) -> np.ndarray:

@@ -43,6 +43,8 @@ class Grounding:
     source: tuple[tuple[Any, dict], ...]   # (abstract rule, binding) of each ground rule
     derived_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (D,) derived atoms
     derived_of: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))   # (V+1, D) 1: base atom denies it
+    family: np.ndarray | None = None   # (R,) with unique references: ground rules of one rule and one
+                                       # ground action (bindings of its references) share a number
 
     @property
     def n_vars(self) -> int:
@@ -87,8 +89,12 @@ class Grounding:
 
 
 def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, int],
-                 noise_softener: float = 0.2) -> Grounding:
-    """Ground every rule over every injective binding of its variables to ``objects``."""
+                 noise_softener: float = 0.2, unique_references: bool = False) -> Grounding:
+    """Ground every rule over every injective binding of its variables to ``objects``; with
+    ``unique_references``, record which ground rules are bindings of one rule's references for
+    one ground action (:attr:`Grounding.family`), so that :func:`planners.prada.frontier.rule_probabilities`
+    can apply NID's semantics: a rule covers only when exactly one binding of its references does
+    (Pasula, Zettlemoyer & Kaelbling 2007), instead of each binding being a rival of every other."""
     atoms = _ground_atoms(objects, predicates, rules)
     index = {a: i for i, a in enumerate(atoms)}
     V = len(atoms)
@@ -145,8 +151,12 @@ def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, in
     sign[~keep, 0] = False
     starts = np.searchsorted(group, np.arange(len(actions))) if R else np.zeros(0, dtype=np.int64)
     dcols, dof = _derived_tables(getattr(rules, "derived", ()), atoms, index)
+    family = None
+    if unique_references:     # rows of one action are contiguous and, within them, one rule's rows
+        keys = [(act, id(rule)) for act, rule, _ in rows]
+        family = np.cumsum([k == 0 or keys[k] != keys[k - 1] for k in range(R)], dtype=np.int64) - 1
     return Grounding(tuple(objects), atoms, index, actions, starts, group, ctx, sign, manip,
-                     set_true, touched, tuple((r[1], r[2]) for r in rows), dcols, dof)
+                     set_true, touched, tuple((r[1], r[2]) for r in rows), dcols, dof, family)
 
 
 def _derived_tables(derived: Sequence[Any], atoms: Sequence[Atom], index: Mapping[Atom, int]
@@ -209,4 +219,5 @@ def subgrounding(g: Grounding, keep: np.ndarray) -> Grounding:
     return replace(g, actions=tuple(g.actions[i] for i in kept_actions), starts=starts, rule_group=group,
                    ctx=g.ctx[keep], sign=g.sign[keep], manipulating=g.manipulating[keep],
                    set_true=g.set_true[rows], touched=g.touched[rows],
-                   source=tuple(g.source[i] for i in rows))
+                   source=tuple(g.source[i] for i in rows),
+                   family=None if g.family is None else np.unique(g.family[keep], return_inverse=True)[1])

@@ -18,7 +18,7 @@ from groundsym.rules.model import with_derived
 
 from .core import PradaCore
 from .frontier import RULE_MIN_PROB
-from .grounding import ground_rules
+from .grounding import ground_rules, subgrounding
 from .rewards import RewardFn, goal_reward, model_reward
 
 
@@ -55,6 +55,12 @@ class PradaPlanner:
                "actions are sampled until the state changes); default: no limit, as libPRADA"),
         Option("goal_share", nonnegative, 0.0, "a PPDDL goal scores the probability that all its "
                "literals hold plus this weight times the expected share of them that hold"),
+        Option("actions", one_of("all", "legal"), "all", "all: sample every grounding of the rules "
+               "(libPRADA); legal: only the primitives the world offers (the observation's actions, "
+               "e.g. with object types), at every step of a sequence"),
+        Option("references", one_of("rivals", "unique"), "rivals", "rivals: every binding of a rule's "
+               "references is a ground rule that rivals the others; unique: NID's semantics, a rule "
+               "covers only when exactly one binding does (docs/kinder.md)"),
     )
 
     def __init__(self, model: PlanningModel, options: Mapping[str, Any], seed: int):
@@ -75,23 +81,30 @@ class PradaPlanner:
             preds.setdefault(a.predicate, a.arity)
         return preds
 
-    def core(self, objects: tuple[str, ...], state: frozenset) -> PradaCore:
-        """The grounding and reward for this object set (built once, reused every step)."""
-        if objects not in self._cores:
-            g = ground_rules(self.model.rules, objects, self._predicates(state), self.opts["noise_softener"])
+    def core(self, objects: tuple[str, ...], state: frozenset, legal: Sequence[Atom] = ()) -> PradaCore:
+        """The grounding and reward for this object set (built once, reused every step); with
+        ``actions=legal``, only the ground rules of the ``legal`` actions (a world with typed
+        arguments: a rule learned without types would otherwise promise effects of actions that
+        cannot be run, and sequences of them outscore every real plan)."""
+        key: Any = (objects, frozenset(legal)) if self.opts["actions"] == "legal" and legal else objects
+        if key not in self._cores:
+            g = ground_rules(self.model.rules, objects, self._predicates(state), self.opts["noise_softener"],
+                             self.opts["references"] == "unique")
+            if key is not objects:
+                g = subgrounding(g, np.isin(g.rule_group, [k for k, a in enumerate(g.actions) if a in key[1]]))
             if self.model.goal is not None:
                 reward: RewardFn = goal_reward(self.model.goal, g, self.opts["goal_share"])
             else:
                 reward = model_reward(self.model.reward, g, np.random.default_rng(0))
             gamma = self.opts["gamma"] if self.opts["gamma"] is not None else self.model.gamma
             o = self.opts
-            self._cores[objects] = PradaCore(g, reward, o["horizon"], o["samples"], gamma, o["choice"],
-                                             False, o["rule_min_prob"], o["threshold"], o["max_runs"])
-        return self._cores[objects]
+            self._cores[key] = PradaCore(g, reward, o["horizon"], o["samples"], gamma, o["choice"],
+                                         False, o["rule_min_prob"], o["threshold"], o["max_runs"])
+        return self._cores[key]
 
     def choose(self, observation: Observation) -> Decision:
         state = observation.state if observation.state is not None else frozenset()
-        core = self.core(observation.objects, state)
+        core = self.core(observation.objects, state, observation.actions or ())
         b0 = core.g.belief(with_derived(state, getattr(self.model.rules, "derived", ()), observation.objects))
         shorten = self.opts["variant"] == "a-prada"
         banned = self._banned(state, observation.t)
