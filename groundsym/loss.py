@@ -252,7 +252,7 @@ class Loss:
                 u, b, pre, post = local_view(u, b, pre, post, d.lock, self.local_steps)
             up, bp = u[pre], b[pre]
             terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, pre, post, len(unary), len(binary)),
-                     self._reward_nll(up, bp))
+                     self._reward_nll(up, bp, self.local_steps is not None))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
             self._abstraction_cache[key] = terms
@@ -290,10 +290,13 @@ class Loss:
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         return float(-self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit).sum())
 
-    def _reward_nll(self, up: np.ndarray, bp: np.ndarray) -> float:
+    def _reward_nll(self, up: np.ndarray, bp: np.ndarray, pinned: bool = False) -> float:
         """``up``, ``bp``: the states before each transition; a neighbour's primitive and
-        arguments do not matter for the reward (no locks, one label)."""
-        nb = self.backend.neighbours(up, bp, self._no_lock, self._no_label)
+        arguments do not matter for the reward (no locks, one label), unless ``pinned``: the local
+        distance's states are views from the action's arguments, so they are compared as
+        state-action pairs, arguments onto arguments (groundsym/relational/local.py)."""
+        lock, label = (self._lock, self._label) if pinned else (self._no_lock, self._no_label)
+        nb = self.backend.neighbours(up, bp, lock, label)
         s2 = self.sigma ** 2
         c0 = -0.5 * math.log(2 * math.pi * s2)
         return float(-self.backend.reward_ll(nb, self.data.reward, c0, 2 * s2).sum())

@@ -78,11 +78,22 @@ def _candidates(data, n: int, seed: int) -> list[list[Symbol]]:
 
 def test_a_mask_that_keeps_everything_gives_the_exact_loss(monkeypatch):
     """The local loss is the exact loss on the masked states: with a mask that keeps every literal
-    it is the exact loss bit for bit (the per-transition scenes change nothing else)."""
+    its effect, prediction and regulariser are the exact loss's bit for bit (the per-transition
+    scenes change nothing else), and its reward term is the exact one with the arguments pinned."""
     data = prepare(kinematic_tower(8, seed=3, n_cubes=7))
-    exact = [Loss(data)(c) for c in _candidates(data, 30, 0)]
+    exact_loss = Loss(data)
+    exact, pinned = [], []
+    for c in _candidates(data, 30, 0):
+        exact.append(exact_loss(c))
+        u = np.stack([exact_loss._symbol(s).truth for s in c if s.arity == 1], axis=-1)
+        b = np.stack([exact_loss._symbol(s).truth for s in c if s.arity == 2], axis=-1)
+        pinned.append(exact_loss._reward_nll(u[data.pre], b[data.pre], pinned=True))
     monkeypatch.setattr(local, "kept_pairs", lambda b, lock, steps: np.ones(b.shape[:3], dtype=bool))
-    assert [Loss(data, LossConfig(distance="local:1"))(c) for c in _candidates(data, 30, 0)] == exact
+    got = [Loss(data, LossConfig(distance="local:1"))(c) for c in _candidates(data, 30, 0)]
+    assert [(t.effect, t.transition, t.regulariser) for t in got] == [(t.effect, t.transition, t.regulariser)
+                                                                     for t in exact]
+    assert [t.reward for t in got] == pinned
+    assert any(t.reward != e.reward for t, e in zip(got, exact))   # pinning is a change of the reward term
 
 
 def test_one_step_keeps_exactly_the_literals_of_the_arguments():
