@@ -47,6 +47,8 @@ import numpy as np
 
 from .backends import new_backend
 from .errors import UserError
+from .neighbourhood import Neighbourhood
+from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
@@ -247,12 +249,15 @@ class Loss:
                 same &= e.unchanged
             u = np.stack([e.truth for e in au], axis=-1) if au else np.zeros(d.features.shape[:-1] + (0,), np.uint8)
             b = np.stack([e.truth for e in ab], axis=-1) if ab else np.zeros(d.pairs.shape[:-1] + (0,), np.uint8)
-            pre, post = d.pre, d.post
-            if self.local_steps is not None:   # each transition's states under its local mask
-                u, b, pre, post = local_view(u, b, pre, post, d.lock, self.local_steps)
-            up, bp = u[pre], b[pre]
-            terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, pre, post, len(unary), len(binary)),
-                     self._reward_nll(up, bp, self.local_steps is not None))
+            up, bp = u[d.pre], b[d.pre]
+            if self.local_steps is None:
+                terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, d.pre, d.post, len(unary), len(binary)),
+                         self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label)))
+            else:   # prediction: each transition's states under its local mask; reward: whole states, by profile
+                lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
+                terms = (float(np.sum(same)),
+                         self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary)),
+                         self._reward_nll(profile_neighbours(up, bp)))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
             self._abstraction_cache[key] = terms
@@ -290,13 +295,10 @@ class Loss:
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         return float(-self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit).sum())
 
-    def _reward_nll(self, up: np.ndarray, bp: np.ndarray, pinned: bool = False) -> float:
-        """``up``, ``bp``: the states before each transition; a neighbour's primitive and
-        arguments do not matter for the reward (no locks, one label), unless ``pinned``: the local
-        distance's states are views from the action's arguments, so they are compared as
-        state-action pairs, arguments onto arguments (groundsym/relational/local.py)."""
-        lock, label = (self._lock, self._label) if pinned else (self._no_lock, self._no_label)
-        nb = self.backend.neighbours(up, bp, lock, label)
+    def _reward_nll(self, nb: Neighbourhood) -> float:
+        """``nb``: the neighbours of the states before each transition (exact: the backend's pass
+        without locks and with one label, since a neighbour's primitive and arguments do not matter
+        for the reward; local distance: by profile, :mod:`groundsym.profile_neighbours`)."""
         s2 = self.sigma ** 2
         c0 = -0.5 * math.log(2 * math.pi * s2)
         return float(-self.backend.reward_ll(nb, self.data.reward, c0, 2 * s2).sum())

@@ -11,6 +11,7 @@ import pytest
 
 from groundsym.cli import main
 from groundsym.loss import Loss, LossConfig, prepare
+from groundsym.profile_neighbours import profile_neighbours
 from groundsym.relational import local
 from groundsym.relational.local import AUTO_EXACT_MAX, Distance, kept_pairs, kept_pairs_reference
 from groundsym.symbols import Symbol
@@ -79,21 +80,48 @@ def _candidates(data, n: int, seed: int) -> list[list[Symbol]]:
 def test_a_mask_that_keeps_everything_gives_the_exact_loss(monkeypatch):
     """The local loss is the exact loss on the masked states: with a mask that keeps every literal
     its effect, prediction and regulariser are the exact loss's bit for bit (the per-transition
-    scenes change nothing else), and its reward term is the exact one with the arguments pinned."""
+    scenes change nothing else), and its reward term is the mixture over profile neighbours."""
     data = prepare(kinematic_tower(8, seed=3, n_cubes=7))
     exact_loss = Loss(data)
-    exact, pinned = [], []
+    exact, by_profile = [], []
     for c in _candidates(data, 30, 0):
         exact.append(exact_loss(c))
         u = np.stack([exact_loss._symbol(s).truth for s in c if s.arity == 1], axis=-1)
         b = np.stack([exact_loss._symbol(s).truth for s in c if s.arity == 2], axis=-1)
-        pinned.append(exact_loss._reward_nll(u[data.pre], b[data.pre], pinned=True))
+        by_profile.append(exact_loss._reward_nll(profile_neighbours(u[data.pre], b[data.pre])))
     monkeypatch.setattr(local, "kept_pairs", lambda b, lock, steps: np.ones(b.shape[:3], dtype=bool))
     got = [Loss(data, LossConfig(distance="local:1"))(c) for c in _candidates(data, 30, 0)]
     assert [(t.effect, t.transition, t.regulariser) for t in got] == [(t.effect, t.transition, t.regulariser)
                                                                      for t in exact]
-    assert [t.reward for t in got] == pinned
-    assert any(t.reward != e.reward for t, e in zip(got, exact))   # pinning is a change of the reward term
+    assert [t.reward for t in got] == by_profile
+
+
+def _profile_distance(u1, b1, u2, b2) -> float:
+    """By hand: unary counts, then half the L1 of the sorted out- and in-degree sequences."""
+    d = float(np.abs(u1.sum(0).astype(int) - u2.sum(0).astype(int)).sum())
+    for axis in (1, 0):
+        s1, s2 = np.sort(b1.sum(axis).astype(int), axis=0), np.sort(b2.sum(axis).astype(int), axis=0)
+        d += 0.5 * float(np.abs(s1 - s2).sum())
+    return d
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_profile_neighbours_are_the_nearest_others_by_profile(seed):
+    rng = np.random.default_rng(seed)
+    n, m = 30, 6
+    u = (rng.random((n, m, 2)) < 0.3).astype(np.uint8)
+    b = (rng.random((n, m, m, 1)) < 0.15).astype(np.uint8)
+    b[:, np.arange(m), np.arange(m)] = 0
+    u[5], b[5] = u[4][::-1], b[4][::-1, ::-1]            # an isomorphic pair: same profile
+    nb = profile_neighbours(u, b)
+    members, hits = nb.members, nb.hits
+    for i in range(n):
+        d = np.array([_profile_distance(u[i], b[i], u[j], b[j]) if j != i else np.inf for j in range(n)])
+        want = set(np.flatnonzero(d == d.min()).tolist())
+        k = int(nb.cls[i])
+        got = (set(members[k].tolist()) - {i} if len(members[k]) > 1
+               else {int(j) for c, _ in hits[k][1] for j in members[c]})
+        assert got == want, i
 
 
 def test_one_step_keeps_exactly_the_literals_of_the_arguments():

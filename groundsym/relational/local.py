@@ -18,12 +18,11 @@ a rule could reach in ``K`` relation steps from the action's arguments:
   (the held cube, ``inhand(X)``), and objects without relations are interchangeable, so they cost
   the search almost nothing.
 
-Both predictive terms then run the exact machinery (canonical forms, the exact nearest classes,
+The prediction term then runs the exact machinery (canonical forms, the exact nearest classes,
 the same mixtures) on these masked states, so the kernels stay equal to their numpy reference;
-only the states differ. A masked state is a view from the action's arguments, so the reward term
-too compares views as state-action pairs (same primitive, arguments onto arguments), where the
-exact loss lets any state predict a reward: pinned arguments also make its search cheaper (1.6x
-at 20 objects in one run). Cleared relations are scored as predicted right. The effect term and the
+only the states differ. The reward term is not local (a reward is a function of the whole
+scene): with this distance it finds its neighbours by profile on the whole states
+(:mod:`groundsym.profile_neighbours`). Cleared relations are scored as predicted right. The effect term and the
 regulariser do not depend on the distance and are unchanged. What this costs in accuracy is
 measured, not proven (docs/symbol-search.md, "The local distance").
 """
