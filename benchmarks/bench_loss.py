@@ -30,6 +30,7 @@ processes (empty memos, numba's machine code loaded from its disk cache). A cell
 evaluations it did per CPU second. It prints the table and writes a PNG of the curve.
 
     .venv/bin/python benchmarks/bench_loss.py --curve --sizes 7,10,14,20 --evals 1000 --processes 5 --png curve.png
+    .venv/bin/python benchmarks/bench_loss.py --curve --distances exact,local:1 --max-cpu 30 --png curve.png
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -50,7 +52,8 @@ sys.path.insert(0, str(ROOT))
 
 from groundsym import anneal  # noqa: E402
 from groundsym.anneal import AnnealConfig, advance, start_restart  # noqa: E402
-from groundsym.loss import Loss, prepare  # noqa: E402
+from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
+from groundsym.fileio import atomic_write_json  # noqa: E402
 from groundsym.traces import read_traces  # noqa: E402
 
 # --before runs this script on older code, where the proposal was the private anneal._random_symbol
@@ -110,46 +113,51 @@ def run_elsewhere(root: Path, traces: Path | None, evals: int, one_temperature: 
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, evals: int, max_cpu: float) -> dict:
-    """One cell of the curve in this process: a fresh loss, one annealing restart, in rounds of 5
-    evaluations until ``evals`` or ``max_cpu`` CPU seconds."""
+def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, evals: int, max_cpu: float,
+               distance: str = "exact") -> dict:
+    """One cell of the curve in this process: a fresh loss (with this ``distance``), one annealing
+    restart, in rounds of 5 evaluations until ``evals`` or ``max_cpu`` CPU seconds."""
     from groundsym import compiled
     compiled.warm_up()
     sys.path.insert(0, str(ROOT / "tests"))
     from test_loss import kinematic_tower
     data = prepare(kinematic_tower(max(transitions // 10, 1), seed=1, n_cubes=objects))
     cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary, evals=evals * 4, restarts=4)
-    loss = Loss(data)
+    loss = Loss(data, LossConfig(distance=distance))
     state = start_restart(0, 0, loss, cfg)
     t0 = time.process_time()
     while state.done < evals and time.process_time() - t0 < max_cpu:
         state = advance(state, loss, cfg, 5)
     cpu = time.process_time() - t0
     return {"objects": objects, "transitions": data.n_transitions, "symbols": f"{n_unary}+{n_binary}",
-            "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu}
+            "distance": distance, "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu}
 
 
 def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, processes: int,
-          png: Path) -> list[dict]:
+          png: Path, distances: Sequence[str] = ("exact",),
+          symbols: Sequence[tuple[int, int]] = ((1, 1), (2, 1)), exact_sizes: Sequence[int] | None = None) -> list[dict]:
     """Every cell of the curve, each the median rate of ``processes`` fresh processes; the plot is
-    redrawn after each cell, so a stopped run leaves the cells it measured."""
+    redrawn and the rows written beside it (``.json``) after each cell, so a stopped run leaves the
+    cells it measured."""
     rows = []
     for t in transitions:
-        for u, b in ((1, 1), (2, 1)):
-            for m in sizes:
+        for u, b in symbols:
+            for dist, m in ((dist, m) for dist in distances for m in sizes
+                            if dist != "exact" or exact_sizes is None or m in exact_sizes):
                 runs = []
                 for _ in range(processes):
                     cmd = [sys.executable, str(Path(__file__).resolve()), "--cell", f"{m},{t},{u},{b}",
-                           "--evals", str(evals), "--max-cpu", str(max_cpu)]
+                           "--evals", str(evals), "--max-cpu", str(max_cpu), "--distances", dist]
                     res = subprocess.run(cmd, capture_output=True, text=True, check=True, env=dict(os.environ))
                     runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
                 row = dict(runs[0], rate=float(np.median([r["rate"] for r in runs])),
                            evals=int(np.median([r["evals"] for r in runs])), processes=len(runs))
                 rows.append(row)
                 print(f"{row['objects']:>3} objects  {row['transitions']:>5} transitions  {row['symbols']}  "
-                      f"{row['rate']:>8.1f} evals per CPU s  (median of {len(runs)}; {row['evals']} evals each)",
-                      flush=True)
+                      f"{dist:>8}  {row['rate']:>8.1f} evals per CPU s  (median of {len(runs)}; {row['evals']} evals "
+                      f"each, {np.median([r['cpu_s'] for r in runs]):.1f} CPU s)", flush=True)
                 plot_curve(rows, png)
+                atomic_write_json(png.with_suffix(".json"), rows)
     return rows
 
 
@@ -159,9 +167,13 @@ def plot_curve(rows: list[dict], png: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    for key in sorted({(r["transitions"], r["symbols"]) for r in rows}):
-        pts = sorted((r["objects"], r["rate"]) for r in rows if (r["transitions"], r["symbols"]) == key)
-        ax.plot(*zip(*pts), marker="o", label=f"{key[0]} transitions, {key[1]} symbols")
+    def key_of(r: dict) -> tuple:
+        return r["transitions"], r["symbols"], r.get("distance", "exact")
+
+    for key in sorted({key_of(r) for r in rows}):
+        pts = sorted((r["objects"], r["rate"]) for r in rows if key_of(r) == key)
+        ax.plot(*zip(*pts), marker="o", ls="-" if key[2] == "exact" else "--",
+                label=f"{key[0]} transitions, {key[1]} symbols, {key[2]}")
     ax.axhline(1000, color="grey", ls=":", lw=1)
     ax.axhline(300, color="grey", ls=":", lw=1)
     ax.set(xlabel="objects", ylabel="loss evaluations per CPU second", yscale="log",
@@ -190,6 +202,11 @@ def main() -> int:
     ap.add_argument("--curve", action="store_true", help="the rate against the number of objects")
     ap.add_argument("--sizes", default="7,10,14,20,30,40", help="--curve: numbers of objects, comma-separated")
     ap.add_argument("--transitions", default="160,1000", help="--curve: numbers of transitions, comma-separated")
+    ap.add_argument("--distances", default="exact", help="--curve: the loss's distance settings, comma-separated "
+                    "(exact, local:K, auto)")
+    ap.add_argument("--exact-sizes", help="--curve: the sizes the exact distance is measured at (default: --sizes); "
+                    "one search block at 30 objects can take minutes")
+    ap.add_argument("--symbols", default="1+1,2+1", help="--curve: unary+binary symbol counts, comma-separated")
     ap.add_argument("--processes", type=int, default=5, help="--curve: fresh processes per cell (median)")
     ap.add_argument("--max-cpu", type=float, default=120.0, help="--curve: CPU seconds at most per cell and process")
     ap.add_argument("--png", type=Path, default=Path("loss-speed.png"), help="--curve: where the plot goes")
@@ -199,20 +216,26 @@ def main() -> int:
     one = args.one_temperature
     if args.cell:
         m, t, u, b = (int(x) for x in args.cell.split(","))
-        print(json.dumps(curve_cell(m, t, u, b, args.evals, args.max_cpu)))
+        print(json.dumps(curve_cell(m, t, u, b, args.evals, args.max_cpu, args.distances)))
         return 0
     if args.curve:
         try:
             sizes = [int(x) for x in args.sizes.split(",")]
             transitions = [int(x) for x in args.transitions.split(",")]
-        except ValueError:
-            print(f"bench_loss.py: --sizes/--transitions: comma-separated integers, got {args.sizes!r} / "
-                  f"{args.transitions!r}", file=sys.stderr)
+            symbols = [tuple(int(n) for n in x.split("+")) for x in args.symbols.split(",")]
+            distances = args.distances.split(",")
+            exact_sizes = [int(x) for x in args.exact_sizes.split(",")] if args.exact_sizes else None
+            for d in distances:
+                LossConfig(distance=d)
+            if any(len(x) != 2 for x in symbols):
+                raise ValueError("--symbols: U+B pairs")
+        except ValueError as exc:
+            print(f"bench_loss.py: --sizes/--transitions/--symbols/--distances: {exc}", file=sys.stderr)
             return 2
         if min(sizes) < 2 or max(sizes) > 62 or min(transitions) < 10 or args.processes < 1 or args.evals < 1:
             print("bench_loss.py: --sizes in 2..62, --transitions >= 10, --processes and --evals >= 1", file=sys.stderr)
             return 2
-        curve(sizes, transitions, args.evals, args.max_cpu, args.processes, args.png)
+        curve(sizes, transitions, args.evals, args.max_cpu, args.processes, args.png, distances, symbols, exact_sizes)
         print(f"plot: {args.png}")
         return 0
     if args.json_only:

@@ -47,6 +47,9 @@ import numpy as np
 
 from .backends import new_backend
 from .errors import UserError
+from .neighbourhood import Neighbourhood
+from .profile_neighbours import profile_neighbours
+from .relational.local import Distance, local_view
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
 
@@ -68,8 +71,10 @@ class LossConfig:
     reward_sigma: float | None = None  # fixed sigma instead (None: from the data)
     predict: str = "changes"       # what a neighbour at distance > 0 predicts: its "changes" or its "successor"
     width_cap: float = 3.0         # widths beyond this x the spread cost as at it (0: no cap)
+    distance: str = "exact"        # the neighbours' distance: exact, local[:K] or auto (groundsym/relational/local.py)
 
     def __post_init__(self) -> None:
+        Distance.parse(self.distance)
         if self.predict not in PREDICT_MODES:
             raise ValueError(f"predict must be one of {', '.join(PREDICT_MODES)}, got {self.predict!r}")
         if not 0 < self.noise < 0.5:
@@ -84,7 +89,12 @@ class LossConfig:
                 raise ValueError(f"{f.name} must be non-negative, got {v}")
 
     def to_doc(self) -> dict[str, Any]:
-        return asdict(self)
+        """The settings as JSON; ``distance`` only when it is not the exact one, so the files of
+        runs with the default distance read as before it existed."""
+        doc = asdict(self)
+        if doc["distance"] == "exact":
+            del doc["distance"]
+        return doc
 
 
 @dataclass(frozen=True)
@@ -218,6 +228,7 @@ class Loss:
         n = data.n_transitions           # the passes' locks and labels (transition; reward: none)
         self._lock, self._label = data.lock.astype(np.int64), data.label.astype(np.int64)
         self._no_lock, self._no_label = np.zeros_like(self._lock), np.zeros(n, dtype=np.int64)
+        self.local_steps = Distance.parse(config.distance).steps_for(data.features.shape[1])  # None: exact
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -239,8 +250,14 @@ class Loss:
             u = np.stack([e.truth for e in au], axis=-1) if au else np.zeros(d.features.shape[:-1] + (0,), np.uint8)
             b = np.stack([e.truth for e in ab], axis=-1) if ab else np.zeros(d.pairs.shape[:-1] + (0,), np.uint8)
             up, bp = u[d.pre], b[d.pre]
-            terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, len(unary), len(binary)),
-                     self._reward_nll(up, bp))
+            if self.local_steps is None:
+                terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, d.pre, d.post, len(unary), len(binary)),
+                         self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label)))
+            else:   # prediction: each transition's states under its local mask; reward: whole states, by profile
+                lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
+                terms = (float(np.sum(same)),
+                         self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary)),
+                         self._reward_nll(profile_neighbours(up, bp)))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
             self._abstraction_cache[key] = terms
@@ -265,9 +282,8 @@ class Loss:
 
     # -- the two predictive terms
     def _transition_nll(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
-                        n_unary: int, n_binary: int) -> float:
+                        pre: np.ndarray, post: np.ndarray, n_unary: int, n_binary: int) -> float:
         """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``)."""
-        d = self.data
         m = u.shape[1]
         # literals of every candidate symbol, pruned ones included (those are predicted right for
         # sure): a symbol must not pay for merely existing, only for its mispredictions
@@ -277,12 +293,12 @@ class Loss:
         nb = self.backend.neighbours(up, bp, self._lock, self._label)
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
-        return float(-self.backend.transition_ll(u, b, d.pre, d.post, nb, changes, log_eps, log_ok, n_lit).sum())
+        return float(-self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit).sum())
 
-    def _reward_nll(self, up: np.ndarray, bp: np.ndarray) -> float:
-        """``up``, ``bp``: the states before each transition; a neighbour's primitive and
-        arguments do not matter for the reward (no locks, one label)."""
-        nb = self.backend.neighbours(up, bp, self._no_lock, self._no_label)
+    def _reward_nll(self, nb: Neighbourhood) -> float:
+        """``nb``: the neighbours of the states before each transition (exact: the backend's pass
+        without locks and with one label, since a neighbour's primitive and arguments do not matter
+        for the reward; local distance: by profile, :mod:`groundsym.profile_neighbours`)."""
         s2 = self.sigma ** 2
         c0 = -0.5 * math.log(2 * math.pi * s2)
         return float(-self.backend.reward_ll(nb, self.data.reward, c0, 2 * s2).sum())

@@ -109,3 +109,21 @@ def test_long_searches_past_7_objects_rescore_identically(cubes, traces, evals, 
     data = _fixture(cubes, traces)
     log = _search(data, LossConfig(), 1, 1, evals, seed=4)
     assert _rescore_mismatches(data, LossConfig(), log, fresh_every=fresh_every) == []
+
+
+def test_local_distance_candidates_rescore_identically():
+    """The local distance (``distance=local:1``) at 14 cubes: 600 evaluations of one restart,
+    re-scored in another order and on fresh losses."""
+    data, config = _fixture(14, 16), LossConfig(distance="local:1")
+    log = _search(data, config, 1, 1, 600, seed=3)
+    assert len(log) >= 600
+    assert _rescore_mismatches(data, config, log, fresh_every=20) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cubes,distance,n_unary,evals", [(10, "local:2", 1, 3000), (20, "local:1", 2, 1000)])
+def test_long_local_searches_rescore_identically(cubes, distance, n_unary, evals):
+    """Thousands of evaluations with the local distance, every candidate re-scored on a brand-new Loss."""
+    data, config = _fixture(cubes, 16), LossConfig(distance=distance)
+    log = _search(data, config, n_unary, 1, evals, seed=5)
+    assert _rescore_mismatches(data, config, log, fresh_every=1) == []
