@@ -71,6 +71,15 @@ def _loss(data, kernels: str | None) -> Loss:
     return Loss(data) if kernels is None else Loss(data, kernels=kernels)
 
 
+def benchmark_dataset(traces: Path | None):
+    """The benchmark's data: the traces file, or 16 traces of the 7-object kinematic fixture world."""
+    if traces is not None:
+        return read_traces(traces)
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_loss import kinematic_tower
+    return kinematic_tower(16, seed=1)
+
+
 def workloads(traces: Path | None, evals: int, kernels: str | None, one_temperature: bool = False) -> dict[str, float]:
     """Both workloads on one kind of kernels; returns the rates and the compile time."""
     out: dict[str, float] = {}
@@ -80,13 +89,7 @@ def workloads(traces: Path | None, evals: int, kernels: str | None, one_temperat
     if ((here / "compiled.py").exists() or (here / "compiled").is_dir()) and kernels != "numpy":  # (older code: none)
         from groundsym import compiled
         out["compile_s"] = compiled.warm_up()
-    if traces is not None:
-        ds = read_traces(traces)
-    else:
-        sys.path.insert(0, str(ROOT / "tests"))
-        from test_loss import kinematic_tower
-        ds = kinematic_tower(16, seed=1)
-    data = prepare(ds)
+    data = prepare(benchmark_dataset(traces))
     search = {"ladder": 1.0} if one_temperature and "ladder" in AnnealConfig.__dataclass_fields__ else {}
     cfg = AnnealConfig(evals=evals * 4, restarts=4, **search)
     loss = _loss(data, kernels)

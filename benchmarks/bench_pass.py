@@ -37,18 +37,12 @@ sys.path.insert(0, str(ROOT))
 from groundsym import backends  # noqa: E402
 from groundsym.anneal import AnnealConfig, advance, start_restart  # noqa: E402
 from groundsym.loss import Loss, prepare  # noqa: E402
-from groundsym.traces import read_traces  # noqa: E402
+from bench_loss import benchmark_dataset  # noqa: E402
 
 
 def record_passes(traces: Path | None, evals: int) -> list[tuple]:
     """The inputs of every neighbourhood pass of one annealing restart on this code."""
-    if traces is not None:
-        ds = read_traces(traces)
-    else:
-        sys.path.insert(0, str(ROOT / "tests"))
-        from test_loss import kinematic_tower
-        ds = kinematic_tower(16, seed=1)
-    data = prepare(ds)
+    data = prepare(benchmark_dataset(traces))
     calls: list[tuple] = []
     original = backends.NumbaBackend.neighbours
 
