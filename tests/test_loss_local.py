@@ -5,6 +5,7 @@ offered and refused as an option should be."""
 from __future__ import annotations
 
 import json
+from collections import deque
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from groundsym.cli import main
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.profile_neighbours import profile_neighbours
 from groundsym.relational import local
-from groundsym.relational.local import AUTO_EXACT_MAX, Distance, kept_pairs, kept_pairs_reference
+from groundsym.relational.local import AUTO_EXACT_MAX, Distance, kept_pairs
 from groundsym.symbols import Symbol
 from groundsym.traces import write_traces
 from tests.test_loss import intended_symbols, kinematic_tower
@@ -28,6 +29,26 @@ def _random_graphs(seed: int, t: int = 40, m: int = 9, l: int = 2, density: floa
         for k, obj in enumerate(rng.choice(m, rng.integers(0, 3), replace=False)):
             lock[row, obj] |= 1 << k
     return binary, lock
+
+
+def kept_pairs_reference(binary: np.ndarray, lock: np.ndarray, steps: int) -> np.ndarray:
+    """groundsym.relational.local.kept_pairs by a breadth-first search per transition (the reference)."""
+    t_count, m = lock.shape
+    out = np.zeros((t_count, m, m), dtype=bool)
+    for t in range(t_count):
+        depth = {i: 0 for i in range(m) if lock[t, i]}
+        todo = deque(depth)
+        while todo:
+            i = todo.popleft()
+            for j in range(m):
+                related = binary[t, i, j].any() or binary[t, j, i].any()
+                if related and j not in depth and depth[i] + 1 <= steps - 1:
+                    depth[j] = depth[i] + 1
+                    todo.append(j)
+        for i in depth:
+            out[t, i, :] = True
+            out[t, :, i] = True
+    return out
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

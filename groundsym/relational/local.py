@@ -29,7 +29,6 @@ measured, not proven (docs/symbol-search.md, "The local distance").
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,26 +86,6 @@ def kept_pairs(binary: np.ndarray, lock: np.ndarray, steps: int) -> np.ndarray:
     the reach of ``steps - 1`` relation steps)."""
     near = reach(binary, lock, steps - 1)
     return near[:, :, None] | near[:, None, :]
-
-
-def kept_pairs_reference(binary: np.ndarray, lock: np.ndarray, steps: int) -> np.ndarray:
-    """:func:`kept_pairs` by a breadth-first search per transition (the test's reference)."""
-    t_count, m = lock.shape
-    out = np.zeros((t_count, m, m), dtype=bool)
-    for t in range(t_count):
-        depth = {i: 0 for i in range(m) if lock[t, i]}
-        todo = deque(depth)
-        while todo:
-            i = todo.popleft()
-            for j in range(m):
-                related = binary[t, i, j].any() or binary[t, j, i].any()
-                if related and j not in depth and depth[i] + 1 <= steps - 1:
-                    depth[j] = depth[i] + 1
-                    todo.append(j)
-        for i in depth:
-            out[t, i, :] = True
-            out[t, :, i] = True
-    return out
 
 
 def local_view(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray, lock: np.ndarray,
