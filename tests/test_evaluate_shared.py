@@ -16,7 +16,7 @@ from groundsym.evaluation.protocol import run_run, run_unit, symbol_free, unit_s
 CFG = EvalConfig(sim="tower", methods=("random", "continuous-nn", "symbolic-nn"), symbol_data=(10, 20),
                  model_traces=(1,), seed=3, steps=2, starts=2, truth_symbols=("inhand", "on"), trace_length=4,
                  rule_data="all", model_data="run")
-TIMES = ("seconds", "cpu_seconds")
+TIMES = ("seconds", "cpu_seconds", "shared_cpu_seconds")
 
 
 def without_times(unit: dict) -> dict:
