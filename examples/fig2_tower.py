@@ -21,7 +21,7 @@ same options: finished evaluation units are kept, and a finished Fig. 2(a) or lo
 redone. ``--quick`` is a reduced version (5 runs, 20,000 evaluations).
 
 Two protocol settings differ from ``groundsym evaluate``'s defaults (docs/planning.md, "What a unit
-costs"): ``--model-data run`` (a run's symbol-data sizes share its model traces, and RANDOM and
+costs"): ``--model-data-scope run`` (a run's symbol-data sizes share its model traces, and RANDOM and
 CONTINUOUS-NN play once per run and trace count: a third less CPU for the cubes) and
 ``--planner-opt prada:retries=1`` (as the docs' best figures ran PRADA).
 
@@ -49,7 +49,7 @@ HERE = Path(__file__).resolve().parent
 
 def settings(args: argparse.Namespace) -> list[tuple[str, list[str]]]:
     common = ["--methods", METHODS, "--runs", str(args.runs), "--workers", str(args.workers),
-              "--seed", str(args.seed), "--evals", str(args.evals), "--model-data", args.model_data]
+              "--seed", str(args.seed), "--evals", str(args.evals), "--model-data-scope", args.model_data]
     for opt in args.planner_opt or PLANNER_OPTS:
         common += ["--planner-opt", opt]
     cubes = ["evaluate", "--sim", "tower", "--symbol-data", "40,80,160", "--model-traces", "3,9", *common,
@@ -72,8 +72,8 @@ def main() -> int:
     ap.add_argument("--planner-opt", action="append", default=[], metavar="METHOD:KEY=VALUE",
                     help=f"passed to groundsym evaluate (repeatable; default {' '.join(PLANNER_OPTS)}; "
                     "given ones replace it)")
-    ap.add_argument("--model-data", choices=["run", "unit"], default="run",
-                    help="groundsym evaluate --model-data: run (default: a run's symbol-data sizes share its "
+    ap.add_argument("--model-data-scope", dest="model_data", choices=["run", "unit"], default="run",
+                    help="groundsym evaluate --model-data-scope: run (default: a run's symbol-data sizes share its "
                     "model traces and the symbol-free methods' episodes) or unit (each size its own)")
     ap.add_argument("--loss-check", action="store_true", help="also run examples/fig2_loss_check.py per setting")
     args = ap.parse_args()
@@ -100,7 +100,7 @@ def main() -> int:
 def grounding_table(folder: Path) -> None:
     """``grounding.md``: one row per run and symbol-data size, each symbol's best match and F1, PRADA's
     value per model-trace count as a share of the optimum, and the unit's wall and CPU time (with
-    ``--model-data run`` the first size's unit carries the run's shared part)."""
+    ``--model-data-scope run`` the first size's unit carries the run's shared part)."""
     from groundsym.fileio import atomic_write_text, read_json
 
     results = folder / "results.json"

@@ -1,4 +1,4 @@
-"""``evaluate --model-data run``: a run's symbol-data sizes share its model traces, and the methods
+"""``evaluate --model-data-scope run``: a run's symbol-data sizes share its model traces, and the methods
 that read no symbols play once per run (docs/planning.md, "What a unit costs"). Checked against the
 same units computed without sharing (each size collecting and playing everything itself from the
 run's seeds), on the real tower sim with its true relations (no symbol learning needed)."""
@@ -60,7 +60,7 @@ def test_evaluate_resumes_a_shared_run_from_its_records(tmp_path, capsys):
     """The driver writes one record per size; removing one runs that run again, to the same numbers."""
     argv = ["evaluate", "--sim", "tower", "--methods", "random,symbolic-nn", "--symbol-data", "10,20",
             "--model-traces", "1", "--truth-symbols", "inhand,on", "--steps", "2", "--starts", "1",
-            "--runs", "2", "--seed", "4", "--model-data", "run", "--quiet", "-o", str(tmp_path / "e")]
+            "--runs", "2", "--seed", "4", "--model-data-scope", "run", "--quiet", "-o", str(tmp_path / "e")]
     assert main(argv) == 0
     runs = tmp_path / "e" / "runs"
     first = {p.name: without_times(json.loads(p.read_text())) for p in runs.glob("*.json")}
@@ -72,10 +72,10 @@ def test_evaluate_resumes_a_shared_run_from_its_records(tmp_path, capsys):
     capsys.readouterr()
 
 
-@pytest.mark.parametrize("bad", [["--model-data", "trace"]])
+@pytest.mark.parametrize("bad", [["--model-data-scope", "trace"]])
 def test_unknown_model_data_is_one_line(tmp_path, capsys, bad):
     with pytest.raises(SystemExit) as exc:
         main(["evaluate", "--sim", "tower", *bad, "-o", str(tmp_path / "e"), "--quiet"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert "--model-data" in err and "Traceback" not in err and not (tmp_path / "e").exists()
+    assert "--model-data-scope" in err and "Traceback" not in err and not (tmp_path / "e").exists()

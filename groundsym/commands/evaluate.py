@@ -69,7 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="what NID rules, the reward model and the NN baselines learn from: the fresh --model-traces "
                    "(model, the paper's protocol and the default) or the run's symbol data too (all; with "
                    "--truth-symbols the symbol data is then collected too); docs/planning.md")
-    p.add_argument("--model-data", choices=MODEL_DATA, default="unit",
+    p.add_argument("--model-data-scope", dest="model_data", choices=MODEL_DATA, default="unit",
                    help="who collects the model traces: every unit (a run at one symbol-data size; unit, the "
                    "default, so earlier folders resume) or the run (run: its sizes share them, and RANDOM and "
                    "CONTINUOUS-NN, which read no symbols, play once per run and model-trace count; "

@@ -100,6 +100,6 @@ def validate(cfg: EvalConfig) -> None:
     if cfg.rule_data not in RULE_DATA:
         raise UserError(f"--rule-data {cfg.rule_data}: expected one of {', '.join(RULE_DATA)}")
     if cfg.model_data not in MODEL_DATA:
-        raise UserError(f"--model-data {cfg.model_data}: expected one of {', '.join(MODEL_DATA)}")
+        raise UserError(f"--model-data-scope {cfg.model_data}: expected one of {', '.join(MODEL_DATA)}")
     if not cfg.truth_symbols:
         cfg.anneal_config()
