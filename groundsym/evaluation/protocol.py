@@ -15,6 +15,10 @@ numbers). A unit returns its record and its models as values; the driver alone w
 (``results/runs/``, ``results/models/``, :mod:`groundsym.evaluation.store`), atomically, as each
 unit finishes, so units can run on other machines (``groundsym.executors``) and an interrupted
 evaluation resumes from those files.
+
+With ``model_data="run"`` (``--model-data-scope run``) the job is a whole run instead: its sizes share
+the run's model traces, and the methods that read no symbols play once per run and model-trace
+count (:func:`run_run`); the symbols are those of the per-unit protocol, bit for bit.
 """
 
 from __future__ import annotations
