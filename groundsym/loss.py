@@ -96,18 +96,18 @@ class LossConfig:
 
     def to_doc(self) -> dict[str, Any]:
         """The settings as JSON; the settings added later (``distance``, ``reward_model``,
-        ``static``) only when they are not the defaults, so the files of runs with the defaults
-        read as before those settings existed."""
+        ``static``) only when they differ from what a file without them means."""
         doc = asdict(self)
-        for name in _LATER_SETTINGS:
-            if doc[name] == getattr(LossConfig, name):
+        for name, before in _LATER_SETTINGS.items():
+            if doc[name] == before:
                 del doc[name]
         return doc
 
 
-# settings added after files were first written: left out of a file at their defaults, so the
-# files of runs with the defaults read as before those settings existed
-_LATER_SETTINGS = ("distance", "reward_model", "static")
+# settings added after files were first written, with the value a file without them means: left
+# out of a file at that value, so such files read as before the settings existed (and a file of
+# another value always names it, whatever the current default)
+_LATER_SETTINGS = {"distance": "exact", "reward_model": "neighbour", "static": "split"}
 
 
 @dataclass(frozen=True)
