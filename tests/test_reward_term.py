@@ -127,3 +127,16 @@ def test_backoff_equals_the_examples_numpy_backoff(fixture_data, monkeypatch):
     split = Loss(d, LossConfig(), kernels="numpy")([inhand, SIZE, on, off_b])
     assert got.transition < split.transition          # the split's lost twins are back
     assert Loss(d, cfg)([inhand, SIZE, on, off_b]) == got
+
+
+def test_evaluation_folders_keep_their_fingerprint_and_tell_losses_apart():
+    """A folder made with the default loss keeps its fingerprint (its files name no later setting);
+    another reward model is another evaluation."""
+    from groundsym.evaluation.config import EvalConfig
+
+    base = EvalConfig(sim="tower", methods=("prada",), symbol_data=(160,), model_traces=(9,))
+    assert base.key()["loss"] == {k: v for k, v in LossConfig().to_doc().items()}
+    assert "reward_model" not in base.key()["loss"] and "static" not in base.key()["loss"]
+    other = EvalConfig(sim="tower", methods=("prada",), symbol_data=(160,), model_traces=(9,),
+                       loss=LossConfig(reward_model="linear", static="backoff", sigma_factor=0.1))
+    assert other.key()["loss"]["reward_model"] == "linear" and other.fingerprint() != base.fingerprint()
