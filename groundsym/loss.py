@@ -283,7 +283,7 @@ class Loss:
             ll = self._transition_ll(u, b, n_unary, n_binary)[0]
         trans = 0.0 - float(ll.sum())     # 0.0, not -0.0, without literals
         if self.config.reward_model == "linear":
-            rew = linear_reward_nll(up, bp, d.reward, self.sigma)
+            rew = linear_reward_nll(self.backend.count_features(up, bp), d.reward, self.sigma)
         elif self.local_steps is None:
             rew = self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label))
         else:   # the reward's neighbours under the local distance: whole states, by profile

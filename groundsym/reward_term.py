@@ -45,28 +45,23 @@ def count_features(up: np.ndarray, bp: np.ndarray) -> np.ndarray:
     """
     u = up.astype(np.float64)
     b = bp.astype(np.float64)
-    t, m, k = u.shape
+    t, _, k = u.shape
     n_bin = b.shape[-1]
-    cols: list[np.ndarray] = [u.sum(axis=1), b.sum(axis=(1, 2))]
-    for i in range(k):
-        for j in range(i + 1, k):
-            cols.append((u[:, :, i] * u[:, :, j]).sum(axis=1)[:, None])
-    for p in range(n_bin):
-        P = b[..., p]
-        cols.append(np.einsum("tab,tak->tk", P, u))         # (p ?a ?b) (q ?a)
-        cols.append(np.einsum("tab,tbk->tk", P, u))         # (p ?a ?b) (q ?b)
-        for q in range(p, n_bin):
-            Q = b[..., q]
-            if q != p:
-                cols.append((P * Q).sum(axis=(1, 2))[:, None])
-            cols.append((P * np.swapaxes(Q, 1, 2)).sum(axis=(1, 2))[:, None])
-        for q in range(n_bin):
-            Q = b[..., q]
-            walks = np.einsum("tb,tb->t", P.sum(axis=1), Q.sum(axis=2))   # sum_b (#a: p a b)(#c: q b c)
-            back = np.einsum("tab,tba->t", P, Q)                          # ... with c = a
-            cols.append((walks - back)[:, None])
-        cols.append(_chain_count(P, 3)[:, None])    # exact: counts of 0/1 products
-    return np.concatenate(cols, axis=1) if cols else np.zeros((t, 0))
+    iu = np.triu_indices(k, 1)
+    cols = [u.sum(axis=1), b.sum(axis=(1, 2)),
+            np.einsum("tmi,tmj->tij", u, u)[:, iu[0], iu[1]]]                 # (q ?a) (q' ?a), q < q'
+    if n_bin:
+        cols += [np.einsum("tabp,tak->tpk", b, u).reshape(t, -1),              # (p ?a ?b) (q ?a)
+                 np.einsum("tabp,tbk->tpk", b, u).reshape(t, -1)]              # (p ?a ?b) (q ?b)
+        same = np.einsum("tabp,tabq->tpq", b, b)                              # (p ?a ?b) (q ?a ?b)
+        rev = np.einsum("tabp,tbaq->tpq", b, b)                               # (p ?a ?b) (q ?b ?a)
+        walks = np.einsum("tbp,tbq->tpq", b.sum(axis=1), b.sum(axis=2))       # (p ?a ?b) (q ?b ?c), any c
+        ip = np.triu_indices(n_bin, 1)
+        iq = np.triu_indices(n_bin, 0)
+        cols += [same[:, ip[0], ip[1]], rev[:, iq[0], iq[1]],
+                 (walks - rev).reshape(t, -1),                                # ... c = a left out
+                 _chain_count(np.moveaxis(b, 3, 1), 3)]                       # exact: counts of 0/1 products
+    return np.concatenate(cols, axis=1)
 
 
 def loo_residuals(X: np.ndarray, y: np.ndarray, ridge: float = RIDGE) -> np.ndarray:
@@ -74,22 +69,24 @@ def loo_residuals(X: np.ndarray, y: np.ndarray, ridge: float = RIDGE) -> np.ndar
     (PRESS: ``e_i / (1 - h_ii)``). Constant columns are dropped; without any column the model is
     the mean, and its leave-one-out residual is ``(y_i - mean) n / (n - 1)``."""
     n = len(y)
-    keep = X.std(axis=0) > 1e-12
-    Z = X[:, keep]
-    Z = (Z - Z.mean(axis=0)) / Z.std(axis=0)
+    sd = X.std(axis=0)
+    keep = sd > 1e-12
+    if not keep.any():
+        return (y - y.mean()) * (n / (n - 1))
+    Z = (X[:, keep] - X[:, keep].mean(axis=0)) / sd[keep]
     yc = y - y.mean()
     A = np.einsum("ti,tj->ij", Z, Z) + ridge * n * np.eye(Z.shape[1])
-    coef = np.linalg.solve(A, np.einsum("ti,t->i", Z, yc)) if Z.shape[1] else np.zeros(0)
-    Ainv_Zt = np.linalg.solve(A, Z.T) if Z.shape[1] else np.zeros((0, n))
-    h = 1.0 / n + np.einsum("ti,it->t", Z, Ainv_Zt)
-    resid = yc - np.einsum("ti,i->t", Z, coef)
+    sol = np.linalg.solve(A, np.column_stack([np.einsum("ti,t->i", Z, yc), Z.T]))   # [coef | A^-1 Z']
+    h = 1.0 / n + np.einsum("ti,it->t", Z, sol[:, 1:])
+    resid = yc - np.einsum("ti,i->t", Z, sol[:, 0])
     return resid / np.maximum(1.0 - h, 1e-9)
 
 
-def linear_reward_nll(up: np.ndarray, bp: np.ndarray, reward: np.ndarray, sigma: float) -> float:
-    """``-sum_t log N(r_t; leave-one-out linear prediction from the counts of s_t, sigma^2)``."""
+def linear_reward_nll(counts: np.ndarray, reward: np.ndarray, sigma: float) -> float:
+    """``-sum_t log N(r_t; leave-one-out linear prediction from the counts of s_t, sigma^2)``;
+    ``counts``: :func:`count_features` of the states (or the compiled twin's)."""
     if len(reward) < 3:
         return 0.0
-    e = loo_residuals(count_features(up, bp), reward)
+    e = loo_residuals(counts, reward)
     s2 = sigma * sigma
     return float(len(e) * 0.5 * math.log(2 * math.pi * s2) + (e * e).sum() / (2 * s2))

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from groundsym.backends import new_backend
 from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.reward import candidate_features
 from groundsym.reward_term import count_features, linear_reward_nll, loo_residuals
@@ -43,6 +44,7 @@ def test_count_features_are_the_reward_models_features(k, n_bin):
     assert ours.shape == ref.shape
     as_set = lambda X: sorted(map(tuple, X.T.tolist()))   # noqa: E731
     assert as_set(ours) == as_set(ref)
+    assert np.array_equal(new_backend("numba").count_features(u, b), ours)   # the compiled twin, column by column
 
 
 def test_loo_residuals_equal_explicit_refits():
@@ -76,7 +78,7 @@ def test_a_reward_linear_in_the_counts_is_predicted_exactly():
     r = 0.3 * b.sum(axis=(1, 2, 3)) - 0.1 * u.sum(axis=(1, 2)) + 2.0
     assert np.abs(loo_residuals(count_features(u, b), r, ridge=1e-12)).max() < 1e-6
     sigma = 0.5        # the default ridge leaves a bias of a few thousandths of a nat
-    assert linear_reward_nll(u, b, r, sigma) == pytest.approx(60 * 0.5 * math.log(2 * math.pi * sigma ** 2), abs=1e-2)
+    assert linear_reward_nll(count_features(u, b), r, sigma) == pytest.approx(60 * 0.5 * math.log(2 * math.pi * sigma ** 2), abs=1e-2)
 
 
 @pytest.fixture(scope="module")
@@ -95,6 +97,7 @@ def test_linear_reward_term_prefers_the_intended_symbols(fixture_data):
     full, hand, none = loss([inhand, on]), loss([inhand]), loss([])
     assert full.reward < hand.reward < none.reward or full.reward < hand.reward <= none.reward
     # the other terms do not depend on the reward model
+    assert Loss(d, cfg, kernels="numpy")([inhand, on]) == full      # both kernels, bit for bit
     base = Loss(d)([inhand, on])
     assert (full.effect, full.transition, full.regulariser) == (base.effect, base.transition, base.regulariser)
 
