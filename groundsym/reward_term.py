@@ -40,8 +40,13 @@ def count_features(up: np.ndarray, bp: np.ndarray) -> np.ndarray:
     Per state: the count of each unary and binary symbol; of objects with two unary symbols; of
     pairs ``(p ?a ?b)`` whose first or second object has a unary symbol; of pairs with two binary
     symbols the same way round or reversed; of compositions ``(p ?a ?b) (q ?b ?c)`` over three
-    distinct objects; of ``p``-chains of three atoms over four objects. The same family as
-    :func:`groundsym.reward.candidate_features` at its defaults, computed from the arrays at once.
+    distinct objects; of ``p``-chains of three atoms over four objects (the family of
+    :func:`groundsym.reward.candidate_features` at its defaults); and of pairs joined by a ``p``-path
+    of any length, alone and with a unary symbol on either end. The path counts make a relation and
+    its transitive closure equally good at predicting a reward that depends on the closure (the
+    tower's mean height counts the cubes below each cube): without them the closure (`above`)
+    would predict towers taller than the chains better than the relation itself (`on`), whose
+    rules are the simpler ones.
     """
     u = up.astype(np.float64)
     b = bp.astype(np.float64)
@@ -61,7 +66,21 @@ def count_features(up: np.ndarray, bp: np.ndarray) -> np.ndarray:
         cols += [same[:, ip[0], ip[1]], rev[:, iq[0], iq[1]],
                  (walks - rev).reshape(t, -1),                                # ... c = a left out
                  _chain_count(np.moveaxis(b, 3, 1), 3)]                       # exact: counts of 0/1 products
+        c = path_closure(b)
+        cols += [c.sum(axis=(1, 2)), np.einsum("tabp,tak->tpk", c, u).reshape(t, -1),
+                 np.einsum("tabp,tbk->tpk", c, u).reshape(t, -1)]
     return np.concatenate(cols, axis=1)
+
+
+def path_closure(b: np.ndarray) -> np.ndarray:
+    """(T, M, M, L): whether a path of one or more ``p`` atoms leads from ``a`` to ``b`` (``a != b``),
+    by repeated squaring of the relation."""
+    r = np.moveaxis(b, 3, 1) > 0                                  # (T, L, M, M)
+    for _ in range(max(1, int(np.ceil(np.log2(max(b.shape[1], 2)))))):
+        r = r | (np.matmul(r.astype(np.float64), r.astype(np.float64)) > 0)
+    m = b.shape[1]
+    r[..., np.arange(m), np.arange(m)] = False
+    return np.moveaxis(r, 1, 3).astype(np.float64)
 
 
 def loo_residuals(X: np.ndarray, y: np.ndarray, ridge: float = RIDGE) -> np.ndarray:

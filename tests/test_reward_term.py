@@ -30,16 +30,44 @@ def _random_states(rng: np.random.Generator, t: int, m: int, k: int, n_bin: int)
     return u, b
 
 
+def _closure_reference(u: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
+    """Per binary symbol, the pairs joined by a path (found by depth-first search from each object),
+    then those pairs with each unary symbol on the first object, then on the second."""
+    t, m, k = u.shape
+    n_bin = b.shape[-1]
+    total = np.zeros((n_bin, t))
+    first = np.zeros((n_bin, k, t))
+    second = np.zeros((n_bin, k, t))
+    for s in range(t):
+        for p in range(n_bin):
+            for a in range(m):
+                seen, stack = set(), [a]
+                while stack:
+                    x = stack.pop()
+                    for y in range(m):
+                        if b[s, x, y, p] and y not in seen:
+                            seen.add(y)
+                            stack.append(y)
+                for c in seen - {a}:
+                    total[p, s] += 1
+                    first[p, :, s] += u[s, a]
+                    second[p, :, s] += u[s, c]
+    return [total[p] for p in range(n_bin)] + [first[p, i] for p in range(n_bin) for i in range(k)] + \
+        [second[p, i] for p in range(n_bin) for i in range(k)]
+
+
 @pytest.mark.parametrize("k,n_bin", [(1, 1), (2, 2), (0, 2), (3, 0)])
 def test_count_features_are_the_reward_models_features(k, n_bin):
     """The same family of counts as the learned reward model, each feature's groundings enumerated
-    by :meth:`groundsym.reward.Feature.evaluate`: equal as sets of columns."""
+    by :meth:`groundsym.reward.Feature.evaluate`, plus the path counts by depth-first search: equal
+    as sets of columns."""
     rng = np.random.default_rng(k * 10 + n_bin)
     u, b = _random_states(rng, 40, 5, k, n_bin)
     preds = {**{f"u{i}": 1 for i in range(k)}, **{f"b{j}": 2 for j in range(n_bin)}}
     arrays = {**{f"u{i}": u[..., i].astype(float) for i in range(k)},
               **{f"b{j}": b[..., j].astype(float) for j in range(n_bin)}}
-    ref = np.stack([f.evaluate(arrays, 5) for f in candidate_features(preds)], axis=1)
+    ref = np.stack([f.evaluate(arrays, 5) for f in candidate_features(preds)]
+                   + _closure_reference(u, b), axis=1)
     ours = count_features(u, b)
     assert ours.shape == ref.shape
     as_set = lambda X: sorted(map(tuple, X.T.tolist()))   # noqa: E731

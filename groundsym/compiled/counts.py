@@ -18,10 +18,12 @@ def count_features(u, b):
     n_feat = k + n_bin + k * (k - 1) // 2
     if n_bin:
         n_feat += 2 * n_bin * k + n_bin * (n_bin - 1) // 2 + n_bin * (n_bin + 1) // 2 + n_bin * n_bin + n_bin
+        n_feat += n_bin * (1 + 2 * k)
     out = np.zeros((t_n, n_feat))
     indeg = np.zeros((m, n_bin))
     outdeg = np.zeros((m, n_bin))
     rev = np.zeros((n_bin, n_bin))
+    reach = np.zeros((m, m), dtype=np.bool_)
     for t in range(t_n):
         col = 0
         for i in range(k):
@@ -100,4 +102,34 @@ def count_features(u, b):
                         s += (indeg[x, p] - back) * (outdeg[y, p] - back) - common
             out[t, col] = s
             col += 1
+        col = _closure_counts(u, b, t, reach, out, col)
     return out
+
+
+@njit(cache=True)
+def _closure_counts(u, b, t, reach, out, col):
+    """State ``t``'s counts of pairs joined by a ``p``-path (Warshall), alone and with each unary
+    symbol on the first, then the second object; returns the next column."""
+    m, k = u.shape[1], u.shape[2]
+    n_bin = b.shape[3]
+    base = col
+    for p in range(n_bin):
+        for x in range(m):
+            for y in range(m):
+                reach[x, y] = b[t, x, y, p] != 0
+        for z in range(m):
+            for x in range(m):
+                if reach[x, z]:
+                    for y in range(m):
+                        if reach[z, y]:
+                            reach[x, y] = True
+        total = 0.0
+        for x in range(m):
+            for y in range(m):
+                if x != y and reach[x, y]:
+                    total += 1.0
+                    for i in range(k):
+                        out[t, base + n_bin + p * k + i] += u[t, x, i]
+                        out[t, base + n_bin + n_bin * k + p * k + i] += u[t, y, i]
+        out[t, base + p] = total
+    return base + n_bin * (1 + 2 * k)
