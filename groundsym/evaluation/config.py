@@ -44,6 +44,7 @@ class EvalConfig:
     planner_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     truth_symbols: tuple[str, ...] = ()
     rule_data: str = "model"       # what rules and reward learn from: RULE_DATA (docs/planning.md)
+    loss: LossConfig = LossConfig()  # the symbol-learning loss (`--loss`, as `groundsym learn` takes it)
 
     def key(self) -> dict[str, Any]:
         """The options, plus the annealer's and the loss's settings that they imply (so results from
@@ -56,7 +57,7 @@ class EvalConfig:
         d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
         learned = not self.truth_symbols
         d["anneal"] = self.anneal_config().to_doc() if learned else None
-        d["loss"] = LossConfig().to_doc() if learned else None
+        d["loss"] = self.loss.to_doc() if learned else None
         return d
 
     def anneal_config(self) -> AnnealConfig:
