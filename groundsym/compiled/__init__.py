@@ -28,6 +28,8 @@ steps) and nothing above it. One module per concern, each named after what it mi
   ``mixtures.transition_entries``, ``mixtures.reward_entries``, ``mixtures.mixture_ll`` of
   :mod:`groundsym.mixtures`);
 - :mod:`.truth`: symbols' truth on the data (reference: ``Symbol.holds``);
+- :mod:`.counts`: the linear reward term's relational counts (reference: ``count_features`` of
+  :mod:`groundsym.reward_term`);
 - :mod:`.base`: numba itself and what the others share.
 
 numba compiles on first use and caches the machine code on disk (``cache=True``: beside these
@@ -45,12 +47,14 @@ from .batch import canonical_batch, new_state_memo
 from .canonical import (COMPILED_CANONICAL, colour_order, colours, individualise, needing_search, refine_row,
                         twin_groups_row)
 from .classes import group_keys, neighbourhood, new_intern
+from .counts import count_features
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import MAX_OBJECTS, nearest_classes, new_memo
 from .truth import rbf_holds
 
 __all__ = [
-    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
+    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "canonical_batch", "colour_order", "colours", "count_features",
+    "group_keys", "individualise",
     "mixture_sums", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
     "rbf_holds", "refine_row", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
     "twin_groups_row", "warm_up",
@@ -88,6 +92,7 @@ def warm_up() -> float:
         mixture_sums(item, np.exp(diff), weight, 2)
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
+        count_features(u, b)
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):

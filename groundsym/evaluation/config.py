@@ -48,6 +48,7 @@ class EvalConfig:
     planner_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     truth_symbols: tuple[str, ...] = ()
     rule_data: str = "model"       # what rules and reward learn from: RULE_DATA (docs/planning.md)
+    loss: LossConfig = LossConfig()  # the symbol-learning loss (`--loss`, as `groundsym learn` takes it)
     model_data: str = "unit"       # who collects the model traces: MODEL_DATA
 
     def key(self) -> dict[str, Any]:
@@ -63,7 +64,7 @@ class EvalConfig:
         d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
         learned = not self.truth_symbols
         d["anneal"] = self.anneal_config().to_doc() if learned else None
-        d["loss"] = LossConfig().to_doc() if learned else None
+        d["loss"] = self.loss.to_doc() if learned else None
         return d
 
     def anneal_config(self) -> AnnealConfig:

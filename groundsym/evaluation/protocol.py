@@ -63,7 +63,7 @@ def learn_symbols(ds: Any, cfg: EvalConfig, seed: int, sim: Any) -> tuple[Any, d
     if cfg.truth_symbols:
         check_truth_symbols(cfg.truth_symbols, sim.truth_predicates)
         return TruthSymbols(tuple(cfg.truth_symbols), dict(sim.truth_predicates)), {"symbols": "truth"}
-    loss_cfg = LossConfig()
+    loss_cfg = cfg.loss
     data = prepare(ds, loss_cfg, "symbol data")
     result = anneal(data, loss_cfg, cfg.anneal_config(), seed, workers=1)
     symbols = SymbolSet.for_dataset(result.symbols, ds)
