@@ -22,7 +22,7 @@ from groundsym.ppddl.parser import parse_domain, parse_problem
 from groundsym.ppddl.simulate import Task, simulate_traces
 from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
-from groundsym.rules.successful import SuccessOptions, has_failures, learn_from_successes
+from groundsym.rules.successful import SuccessOptions, _accept, has_failures, learn_from_successes
 from groundsym.symbolic_traces import write_symbolic_traces
 from test_ippc_lrtdp import reachable_states
 
@@ -102,6 +102,23 @@ def test_flipped_atoms_still_give_the_true_operators(flip, traces):
     rules, report = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(TYPES), seed=0)
     assert report.per_action["sail"]["noise"] == pytest.approx(flip, rel=0.3)    # estimated from the data
     assert report.per_action["sail"]["threshold"] < 1.0       # a noise-free threshold would drop preconditions
+    _same_as_truth(rules)
+
+
+def test_a_rare_action_keeps_a_precondition_seen_false_as_often_as_noise_explains():
+    """The exact binomial tail, by hand: at 1% flips, 2 false observations among 8 happen with
+    chance 1 - 0.99^8 - 8 (0.01) 0.99^7 = 0.0027 (above the three-standard-error level 0.00135),
+    3 with chance 5e-5: a literal true in 6 of 8 examples is kept, as one true in 37 of 40 (4
+    false: 0.0008). The normal approximation's 1 - eps - 3 sd asked 0.884 and 0.943 of them."""
+    assert _accept(0.95, 0.01, np.ones(8)) == pytest.approx(0.75)
+    assert _accept(0.95, 0.01, np.ones(40)) == pytest.approx(0.925)
+    assert _accept(0.95, 0.0, np.ones(8)) == 0.95                       # noise-free: the threshold
+    # 2% flips, 5 ferry traces: sail sees (at-ferry ?from) false 6 times in 110 steps (1.9 expected,
+    # chance 0.012); three standard errors dropped it and sail applied from anywhere
+    _, ds = _dataset(5, seed=1, flip=0.02)
+    rules, report = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(TYPES), seed=0)
+    sail = next(r for r in rules.rules if r.action.predicate == "sail")
+    assert "(at-ferry ?x1)" in {str(l) for l in sail.context}
     _same_as_truth(rules)
 
 

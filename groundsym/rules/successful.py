@@ -24,8 +24,9 @@ noise rate from a literal that merely happens to hold as often, so among the thr
 The noise rate itself comes from the data: an atom over the action's arguments that is no effect
 keeps its value from state to successor, so where it differs an observation was flipped. On
 noise-free data it is 0 and the threshold is SAM's 1.0 (no choice to make); with noise, a literal
-within three standard errors of ``1 - noise`` is kept too (an action seen a few times can see a
-true precondition flipped more often than the rate). Negated literals the context's positive
+is also kept when its false observations are as many as flips at that rate give with chance at
+least ``NOISE_LEVEL`` (the exact binomial tail: an action seen a few times can see a true
+precondition flipped more often than the rate, and a dropped precondition makes false plans). Negated literals the context's positive
 literals already exclude in every observed state are left out (state invariants, as mutexes).
 
 Types: a unary predicate named in ``types`` is an object type (static, from the trace file); a
@@ -40,6 +41,7 @@ from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
+from scipy.stats import binom
 
 from ..logic import Atom, Literal, is_variable
 from .contexts import atoms_over
@@ -50,6 +52,9 @@ from .outcomes import induce_outcomes
 
 #: unchanged pseudo-observations in the noise estimate: a few examples of a small problem say little
 PRIOR_UNCHANGED = 20.0
+#: the chance below which an action's false observations of a literal are more than noise explains:
+#: three standard errors of a normal variable, one-sided; the binomial tail itself is used
+NOISE_LEVEL = 0.00135
 THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
 
 
@@ -361,12 +366,19 @@ def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict, consta
     return float((1.0 - np.sqrt(1.0 - 2.0 * q)) / 2.0)
 
 
-def _accept(theta: float, eps: float, w: np.ndarray) -> float:
-    """The frequency an action's literal needs: ``theta``, lowered to three standard errors below
-    ``1 - eps`` where the action has few examples (a true precondition seen false at the noise
-    rate ``eps`` can fall below ``theta`` by chance). Noise-free data (``eps = 0``): ``theta``."""
-    n = max(float(w.sum()), 1.0)
-    return max(0.51, min(theta, 1.0 - eps - 3.0 * np.sqrt(eps * (1.0 - eps) / n))) if eps > 0 else theta
+def _accept(theta: float, eps: float, w: np.ndarray, level: float = NOISE_LEVEL) -> float:
+    """The frequency an action's literal needs: ``theta``, lowered where the action's false
+    observations of a true precondition could be noise: to ``1 - k / n`` for the most false
+    observations ``k`` among its ``n`` examples that flips at rate ``eps`` give with chance at
+    least ``level`` (the exact binomial tail, so an action seen 8 times keeps a literal seen false
+    once at 1% noise; the normal approximation's three standard errors dropped it, and the
+    operator then applied where the reference's does not). Noise-free data (``eps = 0``): ``theta``."""
+    if eps <= 0:
+        return theta
+    n = max(int(round(float(w.sum()))), 1)
+    ks = np.arange(n + 1)
+    k = int(ks[binom.sf(ks - 1, n, eps) >= level].max())
+    return max(0.51, min(theta, 1.0 - k / n))
 
 
 def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, eps: float = 0.0
