@@ -22,7 +22,8 @@ from groundsym.ppddl.parser import parse_domain, parse_problem
 from groundsym.ppddl.simulate import Task, simulate_traces
 from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
-from groundsym.rules.successful import SuccessOptions, _accept, has_failures, learn_from_successes
+from groundsym.rules.successful import (SuccessOptions, _accept, _misobserved_nochange, has_failures,
+                                       learn_from_successes)
 from groundsym.symbolic_traces import write_symbolic_traces
 from test_ippc_lrtdp import reachable_states
 
@@ -102,7 +103,19 @@ def test_flipped_atoms_still_give_the_true_operators(flip, traces):
     rules, report = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(TYPES), seed=0)
     assert report.per_action["sail"]["noise"] == pytest.approx(flip, rel=0.3)    # estimated from the data
     assert report.per_action["sail"]["threshold"] < 1.0       # a noise-free threshold would drop preconditions
+    assert all(Outcome() not in r.outcomes for r in rules.rules)   # every step changed something: the rest is noise
     _same_as_truth(rules)
+
+
+def test_under_noise_the_no_change_outcome_is_noise():
+    """By hand: "no change" 0.5 beside a real outcome 0.4 and noise 0.1 (2 atoms changed on
+    average in its examples) becomes noise 0.6 with 2 * 0.1 / 0.6 atoms changed; the real outcome
+    keeps 0.4 and is the one the most-likely determinisation keeps once noise is dropped."""
+    real = Outcome((Literal(Atom("clean", ("?x1",)), True),))
+    rule = Rule(Atom("wash", ("?x1",)), (), (real, Outcome()), (0.4, 0.5), 0.1, 2.0)
+    moved = _misobserved_nochange(rule)
+    assert moved.outcomes == (real,) and moved.probs == (0.4,)
+    assert moved.noise == pytest.approx(0.6) and moved.noise_changes == pytest.approx(2 * 0.1 / 0.6)
 
 
 def test_a_rare_action_keeps_a_precondition_seen_false_as_often_as_noise_explains():

@@ -414,7 +414,22 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     n = float(table.weights[cov.index].sum())
     fit = _smooth(RuleFit(rule, frozenset(cov.index.tolist()), of.loglik, n), o.nochange_prior)
     stats.update(rules=1, score=of.loglik - o.alpha * rule.complexity(), covered=n)
-    return fit.rule, default, stats
+    return (_misobserved_nochange(fit.rule) if eps > 0 else fit.rule), default, stats
+
+
+def _misobserved_nochange(rule: Rule) -> Rule:
+    """``rule`` with its "no change" outcome's mass moved to the noise outcome: every step of a
+    successful-only trace changed the state (the mode's premise), so on noisy data a step whose
+    effects all failed to show was misobserved. Left as an outcome it can take the most mass in an
+    action seen a few times (barman's ``clean_shaker`` at 5% flips: 3 steps, one with its effect
+    flipped, plus the smoothing's pseudo-count), and the most-likely determinisation then drops
+    every effect of the action. Noise-free data keep NID's smoothing outcome as it is."""
+    if Outcome() not in rule.outcomes:
+        return rule
+    k = rule.outcomes.index(Outcome())
+    noise = rule.noise + rule.probs[k]            # the moved steps changed no atom: the mean shrinks
+    return Rule(rule.action, rule.context, rule.outcomes[:k] + rule.outcomes[k + 1:],
+                rule.probs[:k] + rule.probs[k + 1:], noise, rule.noise_changes * rule.noise / noise)
 
 
 def _lifted_rule(d: _ActionData, ctx: tuple[Literal, ...], accept: float) -> Rule:
