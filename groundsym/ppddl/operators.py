@@ -18,10 +18,10 @@ of the mass (docs/ppddl.md, Determinisation).
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 from ..errors import UserError
-from ..logic import Literal
+from ..logic import Literal, is_variable
 from ..rules.model import Rule, RuleSet
 from .ast import OBJECT, And, AndEffect, Domain, Effect, Not, Predicate, Probabilistic, Typed, Action
 from .from_rules import rounded_probs
@@ -79,6 +79,20 @@ def _operator(rule: Rule, types: dict[str, str | None], noise: str, decimals: in
         pre.append(a if lit.positive else Not(a))
     params = tuple(Typed(ren.get(v, v), deepest_type(kinds[v], types)) for v in variables)
     return Action(rule.action.predicate, params, And(tuple(pre)), _effect(rule, ren, noise, decimals))
+
+
+def named_constants(rules: RuleSet, states: Iterable[frozenset], types: dict[str, str | None]) -> dict[str, str]:
+    """The objects the rules name (contexts and outcomes), each with its most specific type from
+    its type atoms in ``states``: the domain's ``:constants`` (childsnack's ``kitchen``), which the
+    problem must then not declare again."""
+    named = {x for r in rules.rules for l in r.context + tuple(c for o in r.outcomes for c in o.changes)
+             for x in l.atom.args if not is_variable(x)}
+    kinds: dict[str, set[str]] = {c: set() for c in named}
+    for s in states:
+        for a in s:
+            if a.arity == 1 and a.predicate in types and a.args[0] in kinds:
+                kinds[a.args[0]].add(a.predicate)
+    return {c: deepest_type(sorted(k), types) for c, k in sorted(kinds.items())}
 
 
 def deepest_type(kinds: list[str], types: dict[str, str | None]) -> str:

@@ -43,6 +43,7 @@ from typing import Sequence
 import numpy as np
 from scipy.stats import binom
 
+from ..errors import UserError
 from ..logic import Atom, Literal, is_variable
 from .contexts import atoms_over
 from .coverage import Coverage, Example, ExampleTable
@@ -79,6 +80,39 @@ class SuccessOptions:
     nochange_prior: float = 0.5
     prune: bool = True
     negative: bool = True
+
+
+@dataclass(frozen=True)
+class Language:
+    """The domain's language for successful-only contexts: ``constants`` a context may name beside
+    the action's arguments (PDDL ``:constants``), ``negative`` whether negated literals are offered
+    (PDDL ``:negative-preconditions``; see :func:`learn_from_successes` for why it matters)."""
+
+    constants: tuple[str, ...] = ()
+    negative: bool = True
+
+
+def trace_language(meta: dict, objects: set[str], where: str, constants: Sequence[str] | None = None,
+                   negative: bool | None = None) -> Language:
+    """The language a symbolic traces file declares (``meta.constants``: a list of object names;
+    ``meta.negative_preconditions``: true or false), each part overridden by the caller's option
+    (``groundsym learn --constants``, ``--negative-preconditions``). A constant must be an object
+    of the traces: a misspelt one would silently name nothing (docs/amlgym.md, The domain's language)."""
+    if constants is None:
+        constants = meta.get("constants", [])
+        if not isinstance(constants, list) or not all(isinstance(c, str) and c for c in constants):
+            raise UserError(f"{where}: meta.constants: expected a list of object names, got {constants!r}")
+        field_name = f"{where}: meta.constants"
+    else:
+        field_name = "--constants"
+    unknown = sorted(set(constants) - objects)
+    if unknown:
+        raise UserError(f"{field_name}: {', '.join(map(repr, unknown))} is no object of the traces in {where}")
+    if negative is None:
+        negative = meta.get("negative_preconditions", True)
+        if not isinstance(negative, bool):
+            raise UserError(f"{where}: meta.negative_preconditions: expected true or false, got {negative!r}")
+    return Language(tuple(sorted(set(constants))), negative)
 
 
 def has_failures(examples: Sequence[Example]) -> bool:
