@@ -22,7 +22,7 @@ from groundsym.ppddl.parser import parse_domain, parse_problem
 from groundsym.ppddl.simulate import Task, simulate_traces
 from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
-from groundsym.rules.successful import (SuccessOptions, _accept, _misobserved_nochange, has_failures,
+from groundsym.rules.successful import (Language, SuccessOptions, _accept, _misobserved_nochange, has_failures,
                                        learn_from_successes)
 from groundsym.symbolic_traces import write_symbolic_traces
 from test_ippc_lrtdp import reachable_states
@@ -319,3 +319,67 @@ def test_without_negative_preconditions_plans_give_the_true_operators():
     preds = {p: k for p, k in ds.predicates.items() if p not in types}
     learned = operator_domain(rules, preds, types={t: None for t in types}, noise="drop")
     _acts_as(task, determinize(learned, None, "most-likely")[0])
+
+
+def _plan_file(path: Path, ds) -> None:
+    """``ds`` with the steps that change nothing left out (a plan's steps), written as a file."""
+    from groundsym.symbolic_traces import SymbolicTrace
+    for k, tr in enumerate(ds.traces):
+        keep = [t for t in range(len(tr)) if tr.states[t] != tr.states[t + 1]]
+        ds.traces[k] = SymbolicTrace(tr.objects, [tr.states[0]] + [tr.states[t + 1] for t in keep],
+                                     [tr.actions[t] for t in keep], [tr.rewards[t] for t in keep])
+    write_symbolic_traces(path, ds)
+
+
+def test_learn_takes_the_language_from_the_trace_file_or_the_options(tmp_path: Path):
+    """meta.constants and meta.negative_preconditions of the trays plans give the true
+    preconditions, with the constant (load needs its tray in the kitchen); --operators declares
+    the constant in the domain and not in the problem; the options override the file."""
+    task, ds, _ = _plans_of(TRAYS, TRAYS_PROBLEM, 30, seed=0)
+    ds.meta.update(constants=["kitchen"], negative_preconditions=False)
+    _plan_file(tmp_path / "plans.json", ds)
+    r = _cli("learn", "plans.json", "-o", "model", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "model" / "rules.json").read_text())
+    assert doc["options"]["constants"] == ["kitchen"] and doc["options"]["negative_preconditions"] is False
+    r = _cli("export-domain", "model", "-o", "out", "--operators", "--determinize", "most-likely", "--noise", "drop",
+             "--goal", "(served s1 table1)", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    text = (tmp_path / "out" / "domain.pddl").read_text()
+    assert "(:constants kitchen - place)" in text and "(at ?x2 kitchen)" in text
+    assert "kitchen" not in (tmp_path / "out" / "problem.pddl").read_text().split("(:init")[0]
+    _acts_as(task, parse_domain(text))
+    # the options win over the file: without the constant, load is learned over its arguments alone
+    r = _cli("learn", "plans.json", "-o", "blind", "--quiet", "--constants", "table1",
+             "--negative-preconditions", "yes", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "blind" / "rules.json").read_text())
+    assert doc["options"]["constants"] == ["table1"] and doc["options"]["negative_preconditions"] is True
+    assert "kitchen" not in (tmp_path / "blind" / "rules.txt").read_text()
+
+
+def test_a_bad_language_names_the_file_and_field():
+    from groundsym.errors import UserError
+    from groundsym.rules.successful import trace_language
+    objects = {"kitchen", "t1"}
+    for meta, line in [({"constants": "kitchen"}, "f.json: meta.constants: expected a list of object names"),
+                       ({"constants": ["kitchen", ""]}, "f.json: meta.constants: expected a list of object names"),
+                       ({"negative_preconditions": "no"}, "f.json: meta.negative_preconditions: expected true or false")]:
+        with pytest.raises(UserError, match=line):
+            trace_language(meta, objects, "f.json")
+    assert trace_language({"constants": ["kitchen"], "negative_preconditions": False}, objects, "f.json") == \
+        Language(("kitchen",), False)
+    assert trace_language({"constants": ["kitchen"]}, objects, "f.json", ["t1"], True) == Language(("t1",), True)
+
+
+@pytest.mark.parametrize("meta, args, line", [
+    ({"constants": ["pantry"]}, (), "plans.json: meta.constants: 'pantry' is no object of the traces in plans.json"),
+    ({}, ("--constants", "kitchen,pantry"), "--constants: 'pantry' is no object of the traces in plans.json"),
+])
+def test_a_bad_language_is_one_line_exit_2(tmp_path: Path, meta, args, line):
+    _, ds, _ = _plans_of(TRAYS, TRAYS_PROBLEM, 3, seed=0)
+    ds.meta.update(meta)
+    _plan_file(tmp_path / "plans.json", ds)
+    r = _cli("learn", "plans.json", "-o", "model", "--quiet", *args, cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and not (tmp_path / "model").exists()
+    assert line in r.stderr and len(r.stderr.strip().splitlines()) == 1
