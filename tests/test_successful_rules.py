@@ -383,3 +383,38 @@ def test_a_bad_language_is_one_line_exit_2(tmp_path: Path, meta, args, line):
     r = _cli("learn", "plans.json", "-o", "model", "--quiet", *args, cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr and not (tmp_path / "model").exists()
     assert line in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+SHOP = """(define (domain shop)
+  (:requirements :typing)
+  (:types shelf bin - place item place)
+  (:predicates (at ?i - item ?p - place) (free ?p - place))
+  (:action move :parameters (?i - item ?from ?to - place)
+    :precondition (and (at ?i ?from) (free ?to))
+    :effect (and (at ?i ?to) (not (at ?i ?from)) (free ?from) (not (free ?to)))))"""
+SHOP_PROBLEM = """(define (problem p) (:domain shop)
+  (:objects i1 i2 - item s1 s2 s3 s4 s5 s6 s7 s8 s9 s10 s11 - shelf b1 - bin)
+  (:init (at i1 s1) (at i2 s2) (free s3) (free s4) (free s5) (free s6) (free s7) (free s8) (free s9) (free s10)
+         (free s11) (free b1))
+  (:goal (at i1 b1)))"""
+
+
+def test_under_noise_a_parameter_keeps_its_declared_type():
+    """11 shelves and one bin: about 92% of the moves go from and to a shelf. At 5% flipped atoms
+    the noise threshold (0.92 here) would keep ``(shelf ?to)``, a coincidence of the data, and the
+    operator would never move to the bin; types are declared, not observed, so a type literal
+    needs every example, and the operators act as the true ones on every reachable state."""
+    task, ds, _ = _plans_of(SHOP, SHOP_PROBLEM, 20, seed=1)
+    rng = np.random.default_rng(1)
+    places = [o for o in ds.traces[0].objects if o not in ("i1", "i2")]
+    universe = [Atom("at", (i, p)) for i in ("i1", "i2") for p in places] + [Atom("free", (p,)) for p in places]
+    for tr in ds.traces:
+        tr.states[:] = [s ^ {a for a in universe if rng.random() < 0.05} for s in tr.states]
+    types = {"place": None, "shelf": "place", "bin": "place", "item": None}
+    ex = [e for e in examples_from_dataset(ds) if e.changed]
+    rules, report = learn_from_successes(ex, ds.predicates, tuple(types), SuccessOptions(negative=False), seed=0)
+    assert report.per_action["move"]["threshold"] < 0.93        # what a type literal would have needed
+    assert {str(l) for l in rules.rules[0].context} == {"(at ?x1 ?x2)", "(free ?x3)", "(item ?x1)", "(place ?x2)",
+                                                       "(place ?x3)"}
+    learned = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop")
+    _acts_as(task, determinize(learned, None, "most-likely")[0])
