@@ -69,8 +69,10 @@ def learn_groundsym(domain_path: str, traj_paths: list[str], objects: list[dict[
     signatures = {p: tuple(Typed(f"?a{i + 1}", sig.type_predicate(t) if t != "object" else "object")
                            for i, t in enumerate(ts)) for p, ts in sig.predicates.items()}
     params = {a: tuple(f"?{n}" for n, _ in ps) for a, ps in sig.operators.items()}
+    declared = {a: tuple(sig.type_predicate(t) if t != "object" else "object" for _, t in ps)
+                for a, ps in sig.operators.items()}      # the signature every learner is given
     dom = operator_domain(rs, ds.predicates, name=sig.name, types=types, noise="drop",
-                          signatures=signatures, parameters=params,
+                          signatures=signatures, parameters=params, parameter_types=declared,
                           constants={c: sig.type_predicate(t) for c, t in sig.constants.items()})
     plain, _ = determinize(dom, None, "most-likely")
     text = "\n".join(line for line in str(plain).splitlines() if not line.strip().startswith(";"))

@@ -418,3 +418,20 @@ def test_under_noise_a_parameter_keeps_its_declared_type():
                                                        "(place ?x3)"}
     learned = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop")
     _acts_as(task, determinize(learned, None, "most-likely")[0])
+
+
+def test_declared_parameter_types_win_over_the_learned_ones():
+    """Every move of the data went to a shelf, so the learned context types ``?to`` as a shelf (SAM's
+    safe type); given the signature's types, the operator takes any place, as the true one does."""
+    task, ds, ex = _plans_of(SHOP, SHOP_PROBLEM, 20, seed=1)
+    ex = [e for e in ex if e.action.args[2] != "b1"]
+    types = {"place": None, "shelf": "place", "bin": "place", "item": None}
+    rules, _ = learn_from_successes(ex, ds.predicates, tuple(types), SuccessOptions(negative=False), seed=0)
+    learned = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop")
+    assert learned.actions[0].parameters[2].type == "shelf"
+    declared = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop",
+                               parameter_types={"move": ("item", "place", "place")})
+    assert [p.type for p in declared.actions[0].parameters] == ["item", "place", "place"]
+    _acts_as(task, determinize(declared, None, "most-likely")[0])
+    with pytest.raises(Exception, match="2 types for 3 arguments"):
+        operator_domain(rules, {"at": 2, "free": 1}, types=types, parameter_types={"move": ("item", "place")})
