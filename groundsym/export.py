@@ -30,7 +30,7 @@ from .ppddl.axioms import inline
 from .ppddl.compare import context_key, rules_close
 from .ppddl.determinize import determinize
 from .ppddl.from_rules import RulesWriter
-from .ppddl.operators import deepest_type, operator_domain
+from .ppddl.operators import deepest_type, named_constants, operator_domain
 from .ppddl.parser import parse_domain, parse_problem
 from .ppddl.requirements import requirements
 from .ppddl.rule_actions import rule_action_names
@@ -126,11 +126,14 @@ def _operator_export(model: Model, options: ExportOptions, predicates: dict[str,
     (objects, state, source), (goal, goal_note) = scene, goal_of
     sds = model.symbolic_traces
     types = object_types(sds, model.path / "symbolic-traces.json") if sds is not None else {}
+    constants = named_constants(model.rules, [state, *(s for tr in (sds.traces if sds else ()) for s in tr.states)],
+                                types)
     domain = operator_domain(model.rules, predicates, name=options.name, types=types, noise=options.noise,
-                             decimals=DECIMALS)
+                             decimals=DECIMALS, constants=constants)
     kinds = {o: [a.predicate for a in state if a.arity == 1 and a.args[0] == o and a.predicate in types]
              for o in objects}
-    problem = Problem("scene", domain.name, tuple(Typed(o, deepest_type(kinds[o], types)) for o in objects),
+    problem = Problem("scene", domain.name, tuple(Typed(o, deepest_type(kinds[o], types)) for o in objects
+                                                  if o not in constants),
                       tuple(sorted(a for a in state if a.predicate not in types)),
                       (And(tuple(l.atom if l.positive else Not(l.atom) for l in goal)) if goal else None),
                       None, ("maximize", "reward") if ":rewards" in domain.requirements else None,

@@ -34,7 +34,7 @@ from .reward import RewardModel, fit_reward, read_reward, write_reward
 from .rules.evaluate import score_ruleset
 from .rules.io import read_rules, write_rules, write_rules_text
 from .rules.learner import ALPHA, LearnOptions, examples_from_dataset, learn_rules
-from .rules.successful import SuccessOptions, has_failures, learn_from_successes
+from .rules.successful import Language, SuccessOptions, has_failures, learn_from_successes
 from .rules.model import P_MIN, RuleSet
 from .symbolic_traces import SymbolicDataset, object_types, read_symbolic_traces, symbolic_traces_doc
 
@@ -49,7 +49,7 @@ RULE_MODES = ("auto", "nid", "successful-only")
 
 def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv: list[str],
                          alpha: float | None = None, p_min: float | None = None,
-                         progress: bool = True, mode: str = "auto") -> None:
+                         progress: bool = True, mode: str = "auto", language: Language | None = None) -> None:
     """Learn NID rules and a reward model from symbolic traces and write them to ``out_dir``.
 
     ``mode``: ``nid`` learns contexts from the failures in the data (random primitives, the
@@ -57,7 +57,8 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     (plans, demonstrations: docs/rules.md, Successful-only traces); ``auto`` takes the second
     where no action leaves its state unchanged. Callers that collect random primitives pass
     ``nid``: a small sample in which every primitive happened to change something is still not a
-    plan."""
+    plan. ``language``: the constants and negated literals successful-only contexts may use
+    (:func:`groundsym.rules.successful.trace_language`; default: all negated literals, no constants)."""
     if mode not in RULE_MODES:
         raise UserError(f"rule learning mode: expected one of {', '.join(RULE_MODES)}, got {mode!r}")
     if sds.n_transitions < 1:
@@ -76,9 +77,11 @@ def learn_symbolic_model(sds: SymbolicDataset, out_dir: Path, *, seed: int, argv
     if mode == "nid" or (mode == "auto" and has_failures(examples)):
         rs, report = learn_rules(examples, sds.predicates, opts, seed=seed, progress=progress)
     else:       # plans, demonstrations: no failure to learn contexts from (docs/rules.md, Successful-only traces)
+        lang = language or Language()
         rs, report = learn_from_successes(examples, sds.predicates, tuple(object_types(sds)),
-                                          SuccessOptions(alpha=opts.alpha, p_min=opts.p_min), seed=seed)
-        extra = {"mode": "successful-only",
+                                          SuccessOptions(alpha=opts.alpha, p_min=opts.p_min, negative=lang.negative),
+                                          seed=seed, constants=lang.constants)
+        extra = {"mode": "successful-only", "constants": list(lang.constants), "negative_preconditions": lang.negative,
                  "threshold": next(iter(report.per_action.values()), {}).get("threshold", 1.0)}
     covers = score_ruleset(rs, sds).covers
     reward = fit_reward(sds, seed=seed)

@@ -22,7 +22,8 @@ from groundsym.ppddl.parser import parse_domain, parse_problem
 from groundsym.ppddl.simulate import Task, simulate_traces
 from groundsym.rules.learner import examples_from_dataset
 from groundsym.rules.model import DefaultRule, Outcome, Rule, RuleSet, drop_noise
-from groundsym.rules.successful import SuccessOptions, has_failures, learn_from_successes
+from groundsym.rules.successful import (Language, SuccessOptions, _accept, _misobserved_nochange, has_failures,
+                                       learn_from_successes)
 from groundsym.symbolic_traces import write_symbolic_traces
 from test_ippc_lrtdp import reachable_states
 
@@ -102,6 +103,35 @@ def test_flipped_atoms_still_give_the_true_operators(flip, traces):
     rules, report = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(TYPES), seed=0)
     assert report.per_action["sail"]["noise"] == pytest.approx(flip, rel=0.3)    # estimated from the data
     assert report.per_action["sail"]["threshold"] < 1.0       # a noise-free threshold would drop preconditions
+    assert all(Outcome() not in r.outcomes for r in rules.rules)   # every step changed something: the rest is noise
+    _same_as_truth(rules)
+
+
+def test_under_noise_the_no_change_outcome_is_noise():
+    """By hand: "no change" 0.5 beside a real outcome 0.4 and noise 0.1 (2 atoms changed on
+    average in its examples) becomes noise 0.6 with 2 * 0.1 / 0.6 atoms changed; the real outcome
+    keeps 0.4 and is the one the most-likely determinisation keeps once noise is dropped."""
+    real = Outcome((Literal(Atom("clean", ("?x1",)), True),))
+    rule = Rule(Atom("wash", ("?x1",)), (), (real, Outcome()), (0.4, 0.5), 0.1, 2.0)
+    moved = _misobserved_nochange(rule)
+    assert moved.outcomes == (real,) and moved.probs == (0.4,)
+    assert moved.noise == pytest.approx(0.6) and moved.noise_changes == pytest.approx(2 * 0.1 / 0.6)
+
+
+def test_a_rare_action_keeps_a_precondition_seen_false_as_often_as_noise_explains():
+    """The exact binomial tail, by hand: at 1% flips, 2 false observations among 8 happen with
+    chance 1 - 0.99^8 - 8 (0.01) 0.99^7 = 0.0027 (above the three-standard-error level 0.00135),
+    3 with chance 5e-5: a literal true in 6 of 8 examples is kept, as one true in 37 of 40 (4
+    false: 0.0008). The normal approximation's 1 - eps - 3 sd asked 0.884 and 0.943 of them."""
+    assert _accept(0.95, 0.01, np.ones(8)) == pytest.approx(0.75)
+    assert _accept(0.95, 0.01, np.ones(40)) == pytest.approx(0.925)
+    assert _accept(0.95, 0.0, np.ones(8)) == 0.95                       # noise-free: the threshold
+    # 2% flips, 5 ferry traces: sail sees (at-ferry ?from) false 6 times in 110 steps (1.9 expected,
+    # chance 0.012); three standard errors dropped it and sail applied from anywhere
+    _, ds = _dataset(5, seed=1, flip=0.02)
+    rules, report = learn_from_successes(examples_from_dataset(ds), ds.predicates, tuple(TYPES), seed=0)
+    sail = next(r for r in rules.rules if r.action.predicate == "sail")
+    assert "(at-ferry ?x1)" in {str(l) for l in sail.context}
     _same_as_truth(rules)
 
 
@@ -289,3 +319,119 @@ def test_without_negative_preconditions_plans_give_the_true_operators():
     preds = {p: k for p, k in ds.predicates.items() if p not in types}
     learned = operator_domain(rules, preds, types={t: None for t in types}, noise="drop")
     _acts_as(task, determinize(learned, None, "most-likely")[0])
+
+
+def _plan_file(path: Path, ds) -> None:
+    """``ds`` with the steps that change nothing left out (a plan's steps), written as a file."""
+    from groundsym.symbolic_traces import SymbolicTrace
+    for k, tr in enumerate(ds.traces):
+        keep = [t for t in range(len(tr)) if tr.states[t] != tr.states[t + 1]]
+        ds.traces[k] = SymbolicTrace(tr.objects, [tr.states[0]] + [tr.states[t + 1] for t in keep],
+                                     [tr.actions[t] for t in keep], [tr.rewards[t] for t in keep])
+    write_symbolic_traces(path, ds)
+
+
+def test_learn_takes_the_language_from_the_trace_file_or_the_options(tmp_path: Path):
+    """meta.constants and meta.negative_preconditions of the trays plans give the true
+    preconditions, with the constant (load needs its tray in the kitchen); --operators declares
+    the constant in the domain and not in the problem; the options override the file."""
+    task, ds, _ = _plans_of(TRAYS, TRAYS_PROBLEM, 30, seed=0)
+    ds.meta.update(constants=["kitchen"], negative_preconditions=False)
+    _plan_file(tmp_path / "plans.json", ds)
+    r = _cli("learn", "plans.json", "-o", "model", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "model" / "rules.json").read_text())
+    assert doc["options"]["constants"] == ["kitchen"] and doc["options"]["negative_preconditions"] is False
+    r = _cli("export-domain", "model", "-o", "out", "--operators", "--determinize", "most-likely", "--noise", "drop",
+             "--goal", "(served s1 table1)", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    text = (tmp_path / "out" / "domain.pddl").read_text()
+    assert "(:constants kitchen - place)" in text and "(at ?x2 kitchen)" in text
+    assert "kitchen" not in (tmp_path / "out" / "problem.pddl").read_text().split("(:init")[0]
+    _acts_as(task, parse_domain(text))
+    # the options win over the file: without the constant, load is learned over its arguments alone
+    r = _cli("learn", "plans.json", "-o", "blind", "--quiet", "--constants", "table1",
+             "--negative-preconditions", "yes", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "blind" / "rules.json").read_text())
+    assert doc["options"]["constants"] == ["table1"] and doc["options"]["negative_preconditions"] is True
+    assert "kitchen" not in (tmp_path / "blind" / "rules.txt").read_text()
+
+
+def test_a_bad_language_names_the_file_and_field():
+    from groundsym.errors import UserError
+    from groundsym.rules.successful import trace_language
+    objects = {"kitchen", "t1"}
+    for meta, line in [({"constants": "kitchen"}, "f.json: meta.constants: expected a list of object names"),
+                       ({"constants": ["kitchen", ""]}, "f.json: meta.constants: expected a list of object names"),
+                       ({"negative_preconditions": "no"}, "f.json: meta.negative_preconditions: expected true or false")]:
+        with pytest.raises(UserError, match=line):
+            trace_language(meta, objects, "f.json")
+    assert trace_language({"constants": ["kitchen"], "negative_preconditions": False}, objects, "f.json") == \
+        Language(("kitchen",), False)
+    assert trace_language({"constants": ["kitchen"]}, objects, "f.json", ["t1"], True) == Language(("t1",), True)
+
+
+@pytest.mark.parametrize("meta, args, line", [
+    ({"constants": ["pantry"]}, (), "plans.json: meta.constants: 'pantry' is no object of the traces in plans.json"),
+    ({}, ("--constants", "kitchen,pantry"), "--constants: 'pantry' is no object of the traces in plans.json"),
+])
+def test_a_bad_language_is_one_line_exit_2(tmp_path: Path, meta, args, line):
+    _, ds, _ = _plans_of(TRAYS, TRAYS_PROBLEM, 3, seed=0)
+    ds.meta.update(meta)
+    _plan_file(tmp_path / "plans.json", ds)
+    r = _cli("learn", "plans.json", "-o", "model", "--quiet", *args, cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and not (tmp_path / "model").exists()
+    assert line in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+SHOP = """(define (domain shop)
+  (:requirements :typing)
+  (:types shelf bin - place item place)
+  (:predicates (at ?i - item ?p - place) (free ?p - place))
+  (:action move :parameters (?i - item ?from ?to - place)
+    :precondition (and (at ?i ?from) (free ?to))
+    :effect (and (at ?i ?to) (not (at ?i ?from)) (free ?from) (not (free ?to)))))"""
+SHOP_PROBLEM = """(define (problem p) (:domain shop)
+  (:objects i1 i2 - item s1 s2 s3 s4 s5 s6 s7 s8 s9 s10 s11 - shelf b1 - bin)
+  (:init (at i1 s1) (at i2 s2) (free s3) (free s4) (free s5) (free s6) (free s7) (free s8) (free s9) (free s10)
+         (free s11) (free b1))
+  (:goal (at i1 b1)))"""
+
+
+def test_under_noise_a_parameter_keeps_its_declared_type():
+    """11 shelves and one bin: about 92% of the moves go from and to a shelf. At 5% flipped atoms
+    the noise threshold (0.92 here) would keep ``(shelf ?to)``, a coincidence of the data, and the
+    operator would never move to the bin; types are declared, not observed, so a type literal
+    needs every example, and the operators act as the true ones on every reachable state."""
+    task, ds, _ = _plans_of(SHOP, SHOP_PROBLEM, 20, seed=1)
+    rng = np.random.default_rng(1)
+    places = [o for o in ds.traces[0].objects if o not in ("i1", "i2")]
+    universe = [Atom("at", (i, p)) for i in ("i1", "i2") for p in places] + [Atom("free", (p,)) for p in places]
+    for tr in ds.traces:
+        tr.states[:] = [s ^ {a for a in universe if rng.random() < 0.05} for s in tr.states]
+    types = {"place": None, "shelf": "place", "bin": "place", "item": None}
+    ex = [e for e in examples_from_dataset(ds) if e.changed]
+    rules, report = learn_from_successes(ex, ds.predicates, tuple(types), SuccessOptions(negative=False), seed=0)
+    assert report.per_action["move"]["threshold"] < 0.93        # what a type literal would have needed
+    assert {str(l) for l in rules.rules[0].context} == {"(at ?x1 ?x2)", "(free ?x3)", "(item ?x1)", "(place ?x2)",
+                                                       "(place ?x3)"}
+    learned = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop")
+    _acts_as(task, determinize(learned, None, "most-likely")[0])
+
+
+def test_declared_parameter_types_win_over_the_learned_ones():
+    """Every move of the data went to a shelf, so the learned context types ``?to`` as a shelf (SAM's
+    safe type); given the signature's types, the operator takes any place, as the true one does."""
+    task, ds, ex = _plans_of(SHOP, SHOP_PROBLEM, 20, seed=1)
+    ex = [e for e in ex if e.action.args[2] != "b1"]
+    types = {"place": None, "shelf": "place", "bin": "place", "item": None}
+    rules, _ = learn_from_successes(ex, ds.predicates, tuple(types), SuccessOptions(negative=False), seed=0)
+    learned = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop")
+    assert learned.actions[0].parameters[2].type == "shelf"
+    declared = operator_domain(rules, {"at": 2, "free": 1}, types=types, noise="drop",
+                               parameter_types={"move": ("item", "place", "place")})
+    assert [p.type for p in declared.actions[0].parameters] == ["item", "place", "place"]
+    _acts_as(task, determinize(declared, None, "most-likely")[0])
+    with pytest.raises(Exception, match="2 types for 3 arguments"):
+        operator_domain(rules, {"at": 2, "free": 1}, types=types, parameter_types={"move": ("item", "place")})

@@ -18,6 +18,8 @@ from ..fileio import file_sha256, output_target
 from ..modeldir import check_model_output, learn_symbolic_model, model_transaction
 from ..loss import LossConfig, prepare
 from ..progress import Progress
+from ..rules.learner import examples_from_dataset
+from ..rules.successful import Language, has_failures, trace_language
 from ..provenance import provenance
 from ..options import split_key_values
 from ..sim import warn_if_older_cell
@@ -65,7 +67,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "defaults and what each does: docs/symbol-search.md)")
     p.add_argument("--alpha", type=float, default=None, help="rule learning: complexity penalty (passed through)")
     p.add_argument("--p-min", type=float, default=None, help="rule learning: noise outcome floor (passed through)")
+    p.add_argument("--constants", type=_names, default=None, metavar="A,B",
+                   help="successful-only rules from symbolic traces (plans): objects a precondition may name, "
+                        "as PDDL :constants (default: the file's meta.constants; docs/amlgym.md)")
+    p.add_argument("--negative-preconditions", choices=("yes", "no"), default=None,
+                   help="successful-only rules from symbolic traces: offer negated precondition literals "
+                        "(default: the file's meta.negative_preconditions, else yes; docs/amlgym.md)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(x.strip() for x in text.split(","))
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"expected object names separated by commas, got {text!r}")
+    return names
 
 
 LOSS_KEYS = tuple(f.name for f in fields(LossConfig))
@@ -147,6 +162,10 @@ def check_options(args: argparse.Namespace) -> str:
         raise UserError(f"--p-min: must be in (0, 1), got {args.p_min}")
     if schema == SYMBOLIC_SCHEMA:
         return schema
+    for given, name in ((args.constants, "--constants"), (args.negative_preconditions, "--negative-preconditions")):
+        if given is not None:
+            raise UserError(f"{name}: only for symbolic traces ({SYMBOLIC_SCHEMA}), whose successful-only "
+                            f"rules it sets; {args.data} holds continuous traces")
     check_executor_options(args.executor, args.ray_address)
     if args.unary + args.binary == 0:
         raise UserError("--unary and --binary: need at least one symbol to learn")
@@ -248,4 +267,20 @@ def learn_symbols(args: argparse.Namespace, out: Path, model_ds: Dataset | None 
 
 def _learn_rules(sds, out: Path, args: argparse.Namespace) -> None:
     learn_symbolic_model(sds, out, seed=args.seed, argv=args.argv, alpha=args.alpha, p_min=args.p_min,
-                         progress=not args.quiet)
+                         progress=not args.quiet, language=_language(sds, args))
+
+
+def _language(sds, args: argparse.Namespace) -> Language | None:
+    """The successful-only language from the trace file's meta and the options (symbolic traces
+    only; the options would change nothing where the data's failed actions call for NID rules)."""
+    if args.constants is None and args.negative_preconditions is None \
+            and not {"constants", "negative_preconditions"} & set(sds.meta):
+        return None
+    negative = None if args.negative_preconditions is None else args.negative_preconditions == "yes"
+    lang = trace_language(sds.meta, {o for tr in sds.traces for o in tr.objects}, str(args.data),
+                          args.constants, negative)
+    if (args.constants is not None or negative is not None) and has_failures(examples_from_dataset(sds)):
+        raise UserError(f"--constants / --negative-preconditions: {args.data} has actions that changed nothing, so "
+                        "its rules are NID rules, whose contexts come from those failures; the options are for "
+                        "successful-only traces (plans)")
+    return lang
