@@ -50,7 +50,8 @@ NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's
 PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
          "actions": "legal",     # only primitives the world offers (typed arguments: pick(S) of a stick)
          "references": "unique",  # NID's semantics of a rule's references (docs/kinder.md)
-         "retries": "1"}          # a primitive that changed nothing is not tried a third time there
+         "retries": "1",          # a primitive that changed nothing is not tried a third time there ...
+         "retry_memory": "visit"}  # ... until the state changes (the world may have, unseen: docs/kinder.md)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
     "b3": {"bilevel planning": 0.30, "diffusion policy": 0.32, "PPO": 0.00, "LLM planning": 0.01},

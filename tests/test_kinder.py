@@ -89,3 +89,6 @@ def test_collect_is_reproducible_and_counts_env_steps():
                for x, y in zip(ta.scenes, tb.scenes))
     assert a.meta["events"]["primitives"] == 6 and a.meta["events"]["env_steps"] > 0
     assert a.feature_names == ("x", "y", "w", "h", "green", "tip")
+    o = ObstructionSim(obstructions=1)
+    assert o.feature_names == ("x", "y", "w", "h", "green")     # no tip: docs/kinder.md
+    o.close()
