@@ -32,10 +32,11 @@ from groundsym.cli import main as groundsym
 from groundsym.collect import collect_traces
 from groundsym.commands.plan import episode_seeds, sim_planning_model
 from groundsym.fileio import atomic_write_json
-from groundsym.grounding import match_symbols
+from groundsym.grounding import match_symbols, scores, truth_arrays
 from groundsym.modeldir import load_model
 from groundsym.planner import Observation, make_planner
 from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace, write_symbolic_traces
+from groundsym.symbols import dataset_arrays
 from groundsym.traces import read_traces, write_traces
 from sims.kinder2d import ObstructionSim, StickButtonSim
 
@@ -43,8 +44,10 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "b1": (StickButtonSim, {"buttons": 1}, 3, 0, "StickButton2D-b1"),
     "b3": (StickButtonSim, {"buttons": 3}, 3, 0, "StickButton2D-b3"),
     "o1": (ObstructionSim, {"obstructions": 1}, 2, 1, "Obstruction2D-o1"),
-    "o3": (ObstructionSim, {"obstructions": 3}, 2, 1, "Obstruction2D-o3"),
+    "o3": (ObstructionSim, {"obstructions": 3, "reward": "graded"}, 2, 1, "Obstruction2D-o3"),
 }
+RELATIONS_TO = {          # unary relations that are about one fixed object: also graded as pairs with it
+    "o1": {"blocking": "target_surface"}, "o3": {"blocking": "target_surface"}}
 BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
 NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
 PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
@@ -82,10 +85,34 @@ def learn_seed(task: str, seed: int, out: Path, traces: int, length: int, evals:
         write_symbolic_traces(truth_data, truth_dataset(ds, cls))
         groundsym(["learn", str(truth_data), "-o", str(truth_model), "--quiet"])
     best: dict[str, float] = {p: 0.0 for p in cls.truth_predicates}
-    for m in match_symbols(load_model(model).symbols, ds):
+    symbols = load_model(model).symbols
+    for m in match_symbols(symbols, ds):
         if m.best_match in best:
             best[m.best_match] = max(best[m.best_match], round(m.f1, 3))
+    for relation, f1 in pair_f1(symbols, ds, RELATIONS_TO.get(task, {})).items():
+        best[relation] = max(best[relation], round(f1, 3))
     return best
+
+
+def pair_f1(symbols, ds, relations_to: dict[str, str]) -> dict[str, float]:
+    """The best F1 of a learned binary symbol, with the fixed object as either argument, against a
+    unary relation about that object: ``blocking(X)`` says X stands over *the* target surface, and
+    a learned ``b(S, X)`` (or ``b(X, S)``) with S the surface is that relation written as the pair
+    it is. The surface moves from task to task, so no symbol of X's own features can hold it."""
+    if not relations_to or not symbols.binary:
+        return {}
+    feats, pairs = dataset_arrays(ds)
+    _, b = symbols.truth_arrays(feats, pairs)
+    true_u, _ = truth_arrays(ds)
+    objects = ds.traces[0].objects
+    out = {}
+    for relation, other in relations_to.items():
+        j = objects.index(other)
+        rest = [i for i in range(len(objects)) if i != j]
+        true = true_u.get(relation, np.zeros(feats.shape[:2], bool))[:, rest]
+        out[relation] = max(scores(b[:, rows, cols, k], true)[2] for k in range(b.shape[-1])
+                            for rows, cols in ((rest, j), (j, rest)))
+    return out
 
 
 def truth_dataset(ds, cls) -> SymbolicDataset:

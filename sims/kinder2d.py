@@ -29,6 +29,7 @@ docs/kinder.md says what the world lacks (released blocks stay where they are: n
 
 from __future__ import annotations
 
+from dataclasses import replace
 from math import cos, pi, sin
 from typing import Any, Iterable, Mapping
 
@@ -36,7 +37,8 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.options import Option
+from groundsym.options import Option, one_of
+from groundsym.world import Scene
 
 from .kinder2d_skills import (ROBOT, Script, arm_to, drive_to, rect_centre, set_vacuum, tool_tip,
                               turn_to, until)
@@ -287,6 +289,18 @@ def target_on_surface(state: ObjectState, env_reward: float, terminated: bool) -
     return 1.0 if is_on(state, "target_block", "target_surface") else 0.0
 
 
+def graded_obstruction_reward(state: ObjectState) -> float:
+    """``reward=graded``: 1 when the target block is on the surface (KinDER's success), else half
+    the share of obstructions clear of the surface (none over its width). With three obstructions
+    500 random primitives reach KinDER's goal in 16 transitions, too few for a reward model; the
+    share is computed from the task's own state, as the issue allows, and said in docs/kinder.md."""
+    if is_on(state, "target_block", "target_surface"):
+        return 1.0
+    obstructions = state.of_type("rectangle")
+    blocking = {a.args[0] for a in obstruction_truth(state) if a.predicate == "blocking"}
+    return 0.5 * (1 - len(blocking) / len(obstructions)) if obstructions else 0.0
+
+
 STICKBUTTON = WorldSpec(
     name="kinder-stickbutton",
     make_env=lambda o: make_kinder_env(f"kinder/StickButton2D-b{_variant(o, 'buttons', STICKBUTTON_VARIANTS)}-v0"),
@@ -313,8 +327,19 @@ OBSTRUCTION = WorldSpec(
     truth_predicates={"on": 2, "blocking": 1, "targetBlock": 1},
     success=lambda s, terminated: is_on(s, "target_block", "target_surface"),
     episode_length=10, gamma=0.95,
-    options=(Option("obstructions", int, 1, "number of obstructions: KinDER's variants 0 ... 4 (o0 ... o4)"),),
+    options=(Option("obstructions", int, 1, "number of obstructions: KinDER's variants 0 ... 4 (o0 ... o4)"),
+             Option("reward", one_of("kinder", "graded"), "kinder", "kinder: 1 when the target block is on "
+                    "the surface, else 0; graded: else half the share of obstructions clear of the surface")),
 )
 
 StickButtonSim = sim_class(STICKBUTTON, "StickButtonSim")
-ObstructionSim = sim_class(OBSTRUCTION, "ObstructionSim")
+
+
+class ObstructionSim(sim_class(OBSTRUCTION, "ObstructionSim")):      # type: ignore[misc]
+    """Obstruction2D, with ``reward=graded`` computed from the same state when asked for."""
+
+    def scene(self) -> Scene:
+        scene = super().scene()
+        if self.options["reward"] == "graded":
+            return replace(scene, reward=graded_obstruction_reward(self._state()))
+        return scene
