@@ -150,34 +150,69 @@ def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
             "env_steps": int(sim.env_steps), "idle_primitives": idle, "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int) -> None:
+ARMS = ("learned", "true relations", "random")
+
+
+def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int,
+              arms: tuple[str, ...] = ARMS, shard: tuple[int, int] = (0, 1)) -> None:
+    """Episodes of each arm, resumed from ``episodes-<arm>.json``. With ``shard`` (K, N), N > 1, this
+    process runs the episodes whose index is K modulo N, into ``episodes-<arm>.shard-K-of-N.json``,
+    and after each one merges what every shard has finished into ``episodes-<arm>.json`` as far as
+    the episodes run without a gap: N processes of a loaded machine share one seed's episodes, and
+    the merged file is the one a single process writes (each episode has its own seeds)."""
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
-    arms = {"learned": (load_model(d / "model"), lambda m: m.symbols.abstract_scene),
-            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
-            "random": (None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
-    for arm, (model, abstraction) in arms.items():
+    models = {"learned": (lambda: load_model(d / "model"), lambda m: m.symbols.abstract_scene),
+              "true relations": (lambda: load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
+              "random": (lambda: None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
+    k_of, n = shard
+    for arm in arms:
+        load, abstraction = models[arm]
+        model = load()
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
         old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
         if old.get("max_primitives") != max_primitives:
             raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives')}; "
                              f"use that, or another --out")
-        done = old["episodes"]
+        head = {"task": task, "seed": seed, "arm": arm, "max_primitives": max_primitives}
+        done = merge_shards(path, old["episodes"], head)
+        mine_path = path.with_name(f"{path.stem}.shard-{k_of}-of-{n}.json")
+        mine = json.loads(mine_path.read_text())["episodes"] if n > 1 and mine_path.exists() else []
         pm = sim_planning_model(model, sim)
         for k, ep_seed in enumerate(episode_seeds(1000 + seed, min(episodes, random_episodes) if model is None
                                                   else episodes)):
-            if k < len(done):
+            if k < len(done) or (n > 1 and (k % n != k_of or any(e["index"] == k for e in mine))):
                 continue
             planner = make_planner("prada", pm, PRADA, ep_seed) if model else make_planner("random", pm, {}, ep_seed)
             t0 = time.process_time()
-            done.append({**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
-                         "cpu_s": round(time.process_time() - t0, 2)})
-            atomic_write_json(path, {"task": task, "seed": seed, "arm": arm, "max_primitives": max_primitives,
-                                     "episodes": done})
-            print(f"{task} seed {seed} {arm} episode {k}: {'solved' if done[-1]['success'] else 'not solved'} "
-                  f"in {done[-1]['env_steps']} steps", file=sys.stderr)
+            record = {**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
+                      "cpu_s": round(time.process_time() - t0, 2)}
+            if n == 1:
+                done.append(record)
+                atomic_write_json(path, {**head, "episodes": done})
+            else:
+                mine.append({"index": k, **record})
+                atomic_write_json(mine_path, {**head, "episodes": mine})
+                done = merge_shards(path, json.loads(path.read_text())["episodes"] if path.exists() else [], head)
+            print(f"{task} seed {seed} {arm} episode {k}: {'solved' if record['success'] else 'not solved'} "
+                  f"in {record['env_steps']} steps", file=sys.stderr)
     sim.close()
+
+
+def merge_shards(path: Path, done: list[dict], head: dict) -> list[dict]:
+    """``done`` extended by the shards' episodes that follow it without a gap (written back when
+    that adds any)."""
+    extra = {}
+    for p in path.parent.glob(f"{path.stem}.shard-*.json"):
+        extra.update({e["index"]: {k: v for k, v in e.items() if k != "index"}
+                      for e in json.loads(p.read_text())["episodes"]})
+    merged = list(done)
+    while len(merged) in extra:
+        merged.append(extra[len(merged)])
+    if len(merged) > len(done):
+        atomic_write_json(path, {**head, "episodes": merged})
+    return merged
 
 
 def picture(task: str, out: Path) -> Path:
@@ -279,6 +314,21 @@ def seed_range(text: str) -> range:
     return range(int(first), int(last) + 1) if last else range(int(first))
 
 
+def arm_list(text: str) -> tuple[str, ...]:
+    arms = tuple(a.replace("-", " ") for a in text.split(","))
+    bad = [a for a in arms if a not in ARMS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown arm {bad[0]!r}; expected learned, true-relations, random")
+    return arms
+
+
+def shard_spec(text: str) -> tuple[int, int]:
+    k, _, n = text.partition("/")
+    if not (k.isdigit() and n.isdigit() and int(k) < int(n)):
+        raise argparse.ArgumentTypeError(f"expected K/N with 0 <= K < N, got {text!r}")
+    return int(k), int(n)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
@@ -293,6 +343,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="primitives per episode at most; 0 (default): none, only KinDER's 3,000 env steps")
     ap.add_argument("--random-episodes", type=int, default=10,
                     help="episodes of the random-primitive arm per seed (the first of the same episode seeds)")
+    ap.add_argument("--arms", type=arm_list, default=ARMS,
+                    help="planning: the arms to run, of learned,true-relations,random (default: all)")
+    ap.add_argument("--shard", type=shard_spec, default=(0, 1),
+                    help="planning: K/N runs the episodes whose index is K modulo N (N processes share a seed)")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
@@ -309,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes)
+            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes,
+                      args.arms, args.shard)
     return 0
 
 

@@ -4,6 +4,7 @@ on a hand-made recorded dataset whose F1 is counted by hand (docs/kinder.md)."""
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -36,3 +37,19 @@ def test_pair_f1_counts_a_binary_symbol_with_the_fixed_object_as_the_relation():
     assert pair_f1(symbols, ds, {"blocking": "surf"}) == {"blocking": pytest.approx(2 / 3)}
     assert pair_f1(SymbolSet.for_dataset([NEVER], ds), ds, {"blocking": "surf"}) == {"blocking": 0.0}
     assert pair_f1(symbols, ds, {}) == {}
+
+
+def test_merge_shards_extends_the_episodes_as_far_as_they_run_without_a_gap(tmp_path):
+    from kinder_table import merge_shards
+    from groundsym.fileio import atomic_write_json
+
+    head = {"task": "o1", "seed": 0, "arm": "learned", "max_primitives": 0}
+    main = tmp_path / "episodes-learned.json"
+    atomic_write_json(main, {**head, "episodes": [{"seed": 10}, {"seed": 11}]})
+    atomic_write_json(tmp_path / "episodes-learned.shard-0-of-2.json",
+                      {**head, "episodes": [{"index": 2, "seed": 12}, {"index": 4, "seed": 14}, {"index": 6, "seed": 16}]})
+    atomic_write_json(tmp_path / "episodes-learned.shard-1-of-2.json",
+                      {**head, "episodes": [{"index": 3, "seed": 13}]})           # 5 is missing: stop at 4
+    merged = merge_shards(main, json.loads(main.read_text())["episodes"], head)
+    assert [e["seed"] for e in merged] == [10, 11, 12, 13, 14]
+    assert json.loads(main.read_text()) == {**head, "episodes": merged}
