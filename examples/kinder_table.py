@@ -8,6 +8,7 @@ and skipped when the command runs again):
     python examples/kinder_table.py planning --task b1 --seeds 5 --episodes 50 --out results/kinder
     python examples/kinder_table.py table --out results/kinder      # docs/kinder.md's table
     python examples/kinder_table.py picture --task b1 --out results/kinder   # a solved episode, PNG
+    python examples/kinder_table.py terms --task o1 --seeds 5 --out results/kinder  # learned vs hand-made loss
 
 ``symbols``: per seed, ``--traces`` x ``--length`` random primitives (500 transitions by default,
 the issue's bound), ``groundsym learn``, and each relation the task is written in matched to its
@@ -36,7 +37,8 @@ from groundsym.grounding import match_symbols, scores, truth_arrays
 from groundsym.modeldir import load_model
 from groundsym.planner import Observation, make_planner
 from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace, write_symbolic_traces
-from groundsym.symbols import dataset_arrays
+from groundsym.loss import Loss, LossConfig, prepare
+from groundsym.symbols import Symbol, SymbolSet, dataset_arrays
 from groundsym.traces import read_traces, write_traces
 from sims.kinder2d import ObstructionSim, StickButtonSim
 
@@ -120,6 +122,43 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
     traces = [SymbolicTrace(tr.objects, [s.truth for s in tr.scenes], list(tr.actions),
                             [s.reward for s in tr.scenes[:-1]], tr.scenes[-1].reward) for tr in ds.traces]
     return SymbolicDataset(traces, dict(cls.truth_predicates), dict(ds.primitives))
+
+
+# ----------------------------------------------------------------------------- loss terms
+
+WIDE = 1e3                # a width far above every spread: the dimension is ignored
+
+
+def hand_made_symbols() -> dict[str, list[Symbol]]:
+    """Obstruction2D symbols written by hand over x, y, w, h, green (docs/kinder.md): the target
+    block (green 0, at table height: not the surface, whose centre is at 5 cm), and X standing over
+    Y at table height within 13 cm sideways (``over``: the target on the surface, or the surface
+    under an obstruction that blocks it) or within 3 cm (``on``); unused slots never hold."""
+    def box(name: str, arity: int, centre: list[float], half: list[float]) -> Symbol:
+        return Symbol(name, arity, np.array(centre), np.array(half) / np.sqrt(np.log(2)))
+    target = box("u1", 1, [0, 0.17, 0, 0, 0], [WIDE, 0.058, WIDE, WIDE, 0.025])
+    off = Symbol("u2", 1, np.full(5, WIDE), np.full(5, 1e-3))
+    over = box("b1", 2, [0, 0.117, 0, 0, 0], [0.13, 0.05, WIDE, WIDE, WIDE])
+    on = box("b1", 2, [0, 0.117, 0, 0, 0], [0.03, 0.05, WIDE, WIDE, WIDE])
+    return {"targetBlock + over": [target, off, over], "targetBlock + on": [target, off, on]}
+
+
+def loss_terms(task: str, out: Path, seeds: range) -> str:
+    """Per seed: the loss terms of the learned symbols and of hand-made ones on the same traces,
+    as docs/symbols.md's diagnostics compare them (is it the search or the loss?)."""
+    lines = ["| seed | symbols | F1 | effect | prediction | reward | regulariser | total |", "|---|---|---|---|---|---|---|---|"]
+    for seed in seeds:
+        d = seed_dir(out, task, seed)
+        ds = read_traces(d / "traces.json")
+        loss = Loss(prepare(ds, LossConfig()), LossConfig())
+        sets = {"learned": list(load_model(d / "model").symbols.symbols), **hand_made_symbols()}
+        for name, symbols in sets.items():
+            t = loss(symbols)
+            held = SymbolSet.for_dataset([s for s in symbols if s.centre[0] < WIDE], ds)
+            f1 = ", ".join(f"{m.symbol} {m.best_match} {m.f1:.2f}" for m in match_symbols(held, ds))
+            lines.append(f"| {seed} | {name} | {f1} | {t.effect:.1f} | {t.transition:.1f} | {t.reward:.1f} | "
+                         f"{t.regulariser:.1f} | {t.total:.1f} |")
+    return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------------- planning
@@ -331,7 +370,7 @@ def shard_spec(text: str) -> tuple[int, int]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
+    ap.add_argument("what", choices=("symbols", "planning", "table", "picture", "terms"))
     ap.add_argument("--task", choices=sorted(TASKS), default="b1")
     ap.add_argument("--seeds", type=seed_range, default=range(5),
                     help="N (seeds 0 to N-1) or A-B (seeds A to B): runs of other seeds may go on beside")
@@ -353,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         print(table(args.out))
         print(per_seed(args.out))
         print(f"wrote {success_png(args.out)}", file=sys.stderr)
+        return 0
+    if args.what == "terms":
+        print(loss_terms(args.task, args.out, args.seeds))
         return 0
     if args.what == "picture":
         print(f"wrote {picture(args.task, args.out)}")
