@@ -254,15 +254,15 @@ def merge_shards(path: Path, done: list[dict], head: dict) -> list[dict]:
     return merged
 
 
-def picture(task: str, out: Path) -> Path:
-    """The first solved episode of seed 0 with the learned model, replayed (same seeds, same run)
+def picture(task: str, out: Path, seed: int = 0) -> Path:
+    """The first solved episode of ``seed`` with the learned model, replayed (same seeds, same run)
     and drawn as a strip: the start, then the scene after each primitive."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     cls, opts, *_ = TASKS[task]
-    d = seed_dir(out, task, 0)
+    d = seed_dir(out, task, seed)
     record = json.loads((d / "episodes-learned.json").read_text())
     k, ep = next((k, e) for k, e in enumerate(record["episodes"]) if e["success"])
     sim, model = cls(**opts), load_model(d / "model")
@@ -397,7 +397,7 @@ def main(argv: list[str] | None = None) -> int:
         print(loss_terms(args.task, args.out, args.seeds))
         return 0
     if args.what == "picture":
-        print(f"wrote {picture(args.task, args.out)}")
+        print(f"wrote {picture(args.task, args.out, args.seeds[0])}")
         return 0
     for seed in args.seeds:
         if args.what == "symbols":
