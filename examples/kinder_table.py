@@ -8,6 +8,7 @@ and skipped when the command runs again):
     python examples/kinder_table.py planning --task b1 --seeds 5 --episodes 50 --out results/kinder
     python examples/kinder_table.py table --out results/kinder      # docs/kinder.md's table
     python examples/kinder_table.py picture --task b1 --out results/kinder   # a solved episode, PNG
+    python examples/kinder_table.py terms --task o1 --seeds 5 --out results/kinder  # learned vs hand-made loss
 
 ``symbols``: per seed, ``--traces`` x ``--length`` random primitives (500 transitions by default,
 the issue's bound), ``groundsym learn``, and each relation the task is written in matched to its
@@ -32,10 +33,12 @@ from groundsym.cli import main as groundsym
 from groundsym.collect import collect_traces
 from groundsym.commands.plan import episode_seeds, sim_planning_model
 from groundsym.fileio import atomic_write_json
-from groundsym.grounding import match_symbols
+from groundsym.grounding import match_symbols, scores, truth_arrays
 from groundsym.modeldir import load_model
 from groundsym.planner import Observation, make_planner
 from groundsym.symbolic_traces import SymbolicDataset, SymbolicTrace, write_symbolic_traces
+from groundsym.loss import Loss, LossConfig, prepare
+from groundsym.symbols import Symbol, SymbolSet, dataset_arrays
 from groundsym.traces import read_traces, write_traces
 from sims.kinder2d import ObstructionSim, StickButtonSim
 
@@ -43,14 +46,17 @@ TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "b1": (StickButtonSim, {"buttons": 1}, 3, 0, "StickButton2D-b1"),
     "b3": (StickButtonSim, {"buttons": 3}, 3, 0, "StickButton2D-b3"),
     "o1": (ObstructionSim, {"obstructions": 1}, 2, 1, "Obstruction2D-o1"),
-    "o3": (ObstructionSim, {"obstructions": 3}, 2, 1, "Obstruction2D-o3"),
+    "o3": (ObstructionSim, {"obstructions": 3, "reward": "graded"}, 2, 1, "Obstruction2D-o3"),
 }
+RELATIONS_TO = {          # unary relations that are about one fixed object: also graded as pairs with it
+    "o1": {"blocking": "target_surface"}, "o3": {"blocking": "target_surface"}}
 BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
 NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
 PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
          "actions": "legal",     # only primitives the world offers (typed arguments: pick(S) of a stick)
          "references": "unique",  # NID's semantics of a rule's references (docs/kinder.md)
-         "retries": "1"}          # a primitive that changed nothing is not tried a third time there
+         "retries": "1",          # a primitive that changed nothing is not tried a third time there ...
+         "retry_memory": "visit"}  # ... until the state changes (the world may have, unseen: docs/kinder.md)
 PUBLISHED = {            # success within 3,000 steps, 50 episodes x 5 seeds (the issue's table)
     "b1": {"bilevel planning": 0.99, "diffusion policy": 0.65, "PPO": 0.07, "LLM planning": 0.29},
     "b3": {"bilevel planning": 0.30, "diffusion policy": 0.32, "PPO": 0.00, "LLM planning": 0.01},
@@ -81,10 +87,34 @@ def learn_seed(task: str, seed: int, out: Path, traces: int, length: int, evals:
         write_symbolic_traces(truth_data, truth_dataset(ds, cls))
         groundsym(["learn", str(truth_data), "-o", str(truth_model), "--quiet"])
     best: dict[str, float] = {p: 0.0 for p in cls.truth_predicates}
-    for m in match_symbols(load_model(model).symbols, ds):
+    symbols = load_model(model).symbols
+    for m in match_symbols(symbols, ds):
         if m.best_match in best:
             best[m.best_match] = max(best[m.best_match], round(m.f1, 3))
+    for relation, f1 in pair_f1(symbols, ds, RELATIONS_TO.get(task, {})).items():
+        best[relation] = max(best[relation], round(f1, 3))
     return best
+
+
+def pair_f1(symbols, ds, relations_to: dict[str, str]) -> dict[str, float]:
+    """The best F1 of a learned binary symbol, with the fixed object as either argument, against a
+    unary relation about that object: ``blocking(X)`` says X stands over *the* target surface, and
+    a learned ``b(S, X)`` (or ``b(X, S)``) with S the surface is that relation written as the pair
+    it is. The surface moves from task to task, so no symbol of X's own features can hold it."""
+    if not relations_to or not symbols.binary:
+        return {}
+    feats, pairs = dataset_arrays(ds)
+    _, b = symbols.truth_arrays(feats, pairs)
+    true_u, _ = truth_arrays(ds)
+    objects = ds.traces[0].objects
+    out = {}
+    for relation, other in relations_to.items():
+        j = objects.index(other)
+        rest = [i for i in range(len(objects)) if i != j]
+        true = true_u.get(relation, np.zeros(feats.shape[:2], bool))[:, rest]
+        out[relation] = max(scores(b[:, rows, cols, k], true)[2] for k in range(b.shape[-1])
+                            for rows, cols in ((rest, j), (j, rest)))
+    return out
 
 
 def truth_dataset(ds, cls) -> SymbolicDataset:
@@ -92,6 +122,43 @@ def truth_dataset(ds, cls) -> SymbolicDataset:
     traces = [SymbolicTrace(tr.objects, [s.truth for s in tr.scenes], list(tr.actions),
                             [s.reward for s in tr.scenes[:-1]], tr.scenes[-1].reward) for tr in ds.traces]
     return SymbolicDataset(traces, dict(cls.truth_predicates), dict(ds.primitives))
+
+
+# ----------------------------------------------------------------------------- loss terms
+
+WIDE = 1e3                # a width far above every spread: the dimension is ignored
+
+
+def hand_made_symbols() -> dict[str, list[Symbol]]:
+    """Obstruction2D symbols written by hand over x, y, w, h, green (docs/kinder.md): the target
+    block (green 0, at table height: not the surface, whose centre is at 5 cm), and X standing over
+    Y at table height within 13 cm sideways (``over``: the target on the surface, or the surface
+    under an obstruction that blocks it) or within 3 cm (``on``); unused slots never hold."""
+    def box(name: str, arity: int, centre: list[float], half: list[float]) -> Symbol:
+        return Symbol(name, arity, np.array(centre), np.array(half) / np.sqrt(np.log(2)))
+    target = box("u1", 1, [0, 0.17, 0, 0, 0], [WIDE, 0.058, WIDE, WIDE, 0.025])
+    off = Symbol("u2", 1, np.full(5, WIDE), np.full(5, 1e-3))
+    over = box("b1", 2, [0, 0.117, 0, 0, 0], [0.13, 0.05, WIDE, WIDE, WIDE])
+    on = box("b1", 2, [0, 0.117, 0, 0, 0], [0.03, 0.05, WIDE, WIDE, WIDE])
+    return {"targetBlock + over": [target, off, over], "targetBlock + on": [target, off, on]}
+
+
+def loss_terms(task: str, out: Path, seeds: range) -> str:
+    """Per seed: the loss terms of the learned symbols and of hand-made ones on the same traces,
+    as docs/symbols.md's diagnostics compare them (is it the search or the loss?)."""
+    lines = ["| seed | symbols | F1 | effect | prediction | reward | regulariser | total |", "|---|---|---|---|---|---|---|---|"]
+    for seed in seeds:
+        d = seed_dir(out, task, seed)
+        ds = read_traces(d / "traces.json")
+        loss = Loss(prepare(ds, LossConfig()), LossConfig())
+        sets = {"learned": list(load_model(d / "model").symbols.symbols), **hand_made_symbols()}
+        for name, symbols in sets.items():
+            t = loss(symbols)
+            held = SymbolSet.for_dataset([s for s in symbols if s.centre[0] < WIDE], ds)
+            f1 = ", ".join(f"{m.symbol} {m.best_match} {m.f1:.2f}" for m in match_symbols(held, ds))
+            lines.append(f"| {seed} | {name} | {f1} | {t.effect:.1f} | {t.transition:.1f} | {t.reward:.1f} | "
+                         f"{t.regulariser:.1f} | {t.total:.1f} |")
+    return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------------- planning
@@ -122,45 +189,80 @@ def run_episode(sim, planner, abstract, seed: int, frames: list | None = None,
             "env_steps": int(sim.env_steps), "idle_primitives": idle, "actions": actions}
 
 
-def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int) -> None:
+ARMS = ("learned", "true relations", "random")
+
+
+def plan_seed(task: str, seed: int, out: Path, episodes: int, max_primitives: int, random_episodes: int,
+              arms: tuple[str, ...] = ARMS, shard: tuple[int, int] = (0, 1)) -> None:
+    """Episodes of each arm, resumed from ``episodes-<arm>.json``. With ``shard`` (K, N), N > 1, this
+    process runs the episodes whose index is K modulo N, into ``episodes-<arm>.shard-K-of-N.json``,
+    and after each one merges what every shard has finished into ``episodes-<arm>.json`` as far as
+    the episodes run without a gap: N processes of a loaded machine share one seed's episodes, and
+    the merged file is the one a single process writes (each episode has its own seeds)."""
     cls, opts, *_ = TASKS[task]
     d = seed_dir(out, task, seed)
     sim = cls(**opts)
-    arms = {"learned": (load_model(d / "model"), lambda m: m.symbols.abstract_scene),
-            "true relations": (load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
-            "random": (None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
-    for arm, (model, abstraction) in arms.items():
+    models = {"learned": (lambda: load_model(d / "model"), lambda m: m.symbols.abstract_scene),
+              "true relations": (lambda: load_model(d / "truth-model"), lambda m: (lambda scene: scene.truth)),
+              "random": (lambda: None, lambda m: (lambda scene: frozenset()))}   # our skills without a planner
+    k_of, n = shard
+    for arm in arms:
+        load, abstraction = models[arm]
+        model = load()
         path = d / f"episodes-{arm.replace(' ', '-')}.json"
         old = json.loads(path.read_text()) if path.exists() else {"max_primitives": max_primitives, "episodes": []}
         if old.get("max_primitives") != max_primitives:
             raise SystemExit(f"{path}: made with --max-primitives {old.get('max_primitives')}; "
                              f"use that, or another --out")
-        done = old["episodes"]
+        head = {"task": task, "seed": seed, "arm": arm, "max_primitives": max_primitives}
+        done = merge_shards(path, old["episodes"], head)
+        mine_path = path.with_name(f"{path.stem}.shard-{k_of}-of-{n}.json")
+        mine = json.loads(mine_path.read_text())["episodes"] if n > 1 and mine_path.exists() else []
         pm = sim_planning_model(model, sim)
         for k, ep_seed in enumerate(episode_seeds(1000 + seed, min(episodes, random_episodes) if model is None
                                                   else episodes)):
-            if k < len(done):
+            if k < len(done) or (n > 1 and (k % n != k_of or any(e["index"] == k for e in mine))):
                 continue
             planner = make_planner("prada", pm, PRADA, ep_seed) if model else make_planner("random", pm, {}, ep_seed)
             t0 = time.process_time()
-            done.append({**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
-                         "cpu_s": round(time.process_time() - t0, 2)})
-            atomic_write_json(path, {"task": task, "seed": seed, "arm": arm, "max_primitives": max_primitives,
-                                     "episodes": done})
-            print(f"{task} seed {seed} {arm} episode {k}: {'solved' if done[-1]['success'] else 'not solved'} "
-                  f"in {done[-1]['env_steps']} steps", file=sys.stderr)
+            record = {**run_episode(sim, planner, abstraction(model), ep_seed, max_primitives=max_primitives),
+                      "cpu_s": round(time.process_time() - t0, 2)}
+            if n == 1:
+                done.append(record)
+                atomic_write_json(path, {**head, "episodes": done})
+            else:
+                mine.append({"index": k, **record})
+                atomic_write_json(mine_path, {**head, "episodes": mine})
+                done = merge_shards(path, json.loads(path.read_text())["episodes"] if path.exists() else [], head)
+            print(f"{task} seed {seed} {arm} episode {k}: {'solved' if record['success'] else 'not solved'} "
+                  f"in {record['env_steps']} steps", file=sys.stderr)
     sim.close()
 
 
-def picture(task: str, out: Path) -> Path:
-    """The first solved episode of seed 0 with the learned model, replayed (same seeds, same run)
+def merge_shards(path: Path, done: list[dict], head: dict) -> list[dict]:
+    """``done`` extended by the shards' episodes that follow it without a gap (written back when
+    that adds any)."""
+    extra = {}
+    for p in path.parent.glob(f"{path.stem}.shard-*.json"):
+        extra.update({e["index"]: {k: v for k, v in e.items() if k != "index"}
+                      for e in json.loads(p.read_text())["episodes"]})
+    merged = list(done)
+    while len(merged) in extra:
+        merged.append(extra[len(merged)])
+    if len(merged) > len(done):
+        atomic_write_json(path, {**head, "episodes": merged})
+    return merged
+
+
+def picture(task: str, out: Path, seed: int = 0) -> Path:
+    """The first solved episode of ``seed`` with the learned model, replayed (same seeds, same run)
     and drawn as a strip: the start, then the scene after each primitive."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     cls, opts, *_ = TASKS[task]
-    d = seed_dir(out, task, 0)
+    d = seed_dir(out, task, seed)
     record = json.loads((d / "episodes-learned.json").read_text())
     k, ep = next((k, e) for k, e in enumerate(record["episodes"]) if e["success"])
     sim, model = cls(**opts), load_model(d / "model")
@@ -251,9 +353,24 @@ def seed_range(text: str) -> range:
     return range(int(first), int(last) + 1) if last else range(int(first))
 
 
+def arm_list(text: str) -> tuple[str, ...]:
+    arms = tuple(a.replace("-", " ") for a in text.split(","))
+    bad = [a for a in arms if a not in ARMS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown arm {bad[0]!r}; expected learned, true-relations, random")
+    return arms
+
+
+def shard_spec(text: str) -> tuple[int, int]:
+    k, _, n = text.partition("/")
+    if not (k.isdigit() and n.isdigit() and int(k) < int(n)):
+        raise argparse.ArgumentTypeError(f"expected K/N with 0 <= K < N, got {text!r}")
+    return int(k), int(n)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("what", choices=("symbols", "planning", "table", "picture"))
+    ap.add_argument("what", choices=("symbols", "planning", "table", "picture", "terms"))
     ap.add_argument("--task", choices=sorted(TASKS), default="b1")
     ap.add_argument("--seeds", type=seed_range, default=range(5),
                     help="N (seeds 0 to N-1) or A-B (seeds A to B): runs of other seeds may go on beside")
@@ -265,6 +382,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="primitives per episode at most; 0 (default): none, only KinDER's 3,000 env steps")
     ap.add_argument("--random-episodes", type=int, default=10,
                     help="episodes of the random-primitive arm per seed (the first of the same episode seeds)")
+    ap.add_argument("--arms", type=arm_list, default=ARMS,
+                    help="planning: the arms to run, of learned,true-relations,random (default: all)")
+    ap.add_argument("--shard", type=shard_spec, default=(0, 1),
+                    help="planning: K/N runs the episodes whose index is K modulo N (N processes share a seed)")
     ap.add_argument("--out", type=Path, default=Path("results/kinder"))
     args = ap.parse_args(argv)
     if args.what == "table":
@@ -272,8 +393,11 @@ def main(argv: list[str] | None = None) -> int:
         print(per_seed(args.out))
         print(f"wrote {success_png(args.out)}", file=sys.stderr)
         return 0
+    if args.what == "terms":
+        print(loss_terms(args.task, args.out, args.seeds))
+        return 0
     if args.what == "picture":
-        print(f"wrote {picture(args.task, args.out)}")
+        print(f"wrote {picture(args.task, args.out, args.seeds[0])}")
         return 0
     for seed in args.seeds:
         if args.what == "symbols":
@@ -281,7 +405,8 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(seed_dir(args.out, args.task, seed) / "f1.json", f1)
             print(f"{args.task} seed {seed}: F1 {f1}")
         else:
-            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes)
+            plan_seed(args.task, seed, args.out, args.episodes, args.max_primitives, args.random_episodes,
+                      args.arms, args.shard)
     return 0
 
 

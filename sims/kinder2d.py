@@ -29,6 +29,7 @@ docs/kinder.md says what the world lacks (released blocks stay where they are: n
 
 from __future__ import annotations
 
+from dataclasses import replace
 from math import cos, pi, sin
 from typing import Any, Iterable, Mapping
 
@@ -36,13 +37,15 @@ import numpy as np
 
 from groundsym.errors import UserError
 from groundsym.logic import Atom
-from groundsym.options import Option
+from groundsym.options import Option, one_of
+from groundsym.world import Scene
 
 from .kinder2d_skills import (ROBOT, Script, arm_to, drive_to, rect_centre, set_vacuum, tool_tip,
                               turn_to, until)
 from .object_centric import Chained, Controller, ObjectState, Primitive, WorldSpec, chain, sim_class
 
 FEATURES = ("x", "y", "w", "h", "green", "tip")
+BLOCK_FEATURES = FEATURES[:5]  # Obstruction2D: no tip (nothing is held between its primitives)
 PRESSED_GREEN = 0.9            # KinDER's pressed button colour (0, 0.9, 0)
 HOLD_TIP = 0.02                # an object this close to the vacuum, vacuum on, is held
 ON_TOL = 0.025                 # KinDER's is_on tolerance
@@ -91,6 +94,14 @@ def rect_features(state: ObjectState, obj: str) -> list[float]:
     cx, cy = rect_centre(state, obj)
     tip = _rect_distance(state, obj, *tool_tip(state))
     return [cx, cy, state.get(obj, "width"), state.get(obj, "height"), state.get(obj, "color_g"), tip]
+
+
+def block_features(state: ObjectState, obj: str) -> list[float]:
+    """Obstruction2D's map: ``rect_features`` without ``tip``. Its chained primitives end with the
+    vacuum off and the tip over the block just put down, so ``tip`` held no state of the task,
+    only which block was handled last, and that history was what learned symbols keyed on
+    (docs/kinder.md, "Why Obstruction2D has no tip")."""
+    return rect_features(state, obj)[:5]
 
 
 def circle_features(state: ObjectState, obj: str) -> list[float]:
@@ -278,6 +289,18 @@ def target_on_surface(state: ObjectState, env_reward: float, terminated: bool) -
     return 1.0 if is_on(state, "target_block", "target_surface") else 0.0
 
 
+def graded_obstruction_reward(state: ObjectState) -> float:
+    """``reward=graded``: 1 when the target block is on the surface (KinDER's success), else half
+    the share of obstructions clear of the surface (none over its width). With three obstructions
+    500 random primitives reach KinDER's goal in 16 transitions, too few for a reward model; the
+    share is computed from the task's own state, as the issue allows, and said in docs/kinder.md."""
+    if is_on(state, "target_block", "target_surface"):
+        return 1.0
+    obstructions = state.of_type("rectangle")
+    blocking = {a.args[0] for a in obstruction_truth(state) if a.predicate == "blocking"}
+    return 0.5 * (1 - len(blocking) / len(obstructions)) if obstructions else 0.0
+
+
 STICKBUTTON = WorldSpec(
     name="kinder-stickbutton",
     make_env=lambda o: make_kinder_env(f"kinder/StickButton2D-b{_variant(o, 'buttons', STICKBUTTON_VARIANTS)}-v0"),
@@ -295,8 +318,8 @@ STICKBUTTON = WorldSpec(
 OBSTRUCTION = WorldSpec(
     name="kinder-obstruction",
     make_env=lambda o: make_kinder_env(f"kinder/Obstruction2D-o{_variant(o, 'obstructions', OBSTRUCTION_VARIANTS)}-v0"),
-    read_state=read_kinder_state, feature_names=FEATURES,
-    type_features={"target_block": rect_features, "rectangle": rect_features, "target_surface": rect_features},
+    read_state=read_kinder_state, feature_names=BLOCK_FEATURES,
+    type_features={"target_block": block_features, "rectangle": block_features, "target_surface": block_features},
     primitives=(Primitive("putOnTable", (BLOCK_TYPES,), chain(pick_block, place_on_table), max_steps=400),
                 Primitive("putOnTarget", (BLOCK_TYPES, "target_surface"), chain(pick_block, place_on_target),
                           max_steps=400)),
@@ -304,8 +327,19 @@ OBSTRUCTION = WorldSpec(
     truth_predicates={"on": 2, "blocking": 1, "targetBlock": 1},
     success=lambda s, terminated: is_on(s, "target_block", "target_surface"),
     episode_length=10, gamma=0.95,
-    options=(Option("obstructions", int, 1, "number of obstructions: KinDER's variants 0 ... 4 (o0 ... o4)"),),
+    options=(Option("obstructions", int, 1, "number of obstructions: KinDER's variants 0 ... 4 (o0 ... o4)"),
+             Option("reward", one_of("kinder", "graded"), "kinder", "kinder: 1 when the target block is on "
+                    "the surface, else 0; graded: else half the share of obstructions clear of the surface")),
 )
 
 StickButtonSim = sim_class(STICKBUTTON, "StickButtonSim")
-ObstructionSim = sim_class(OBSTRUCTION, "ObstructionSim")
+
+
+class ObstructionSim(sim_class(OBSTRUCTION, "ObstructionSim")):      # type: ignore[misc]
+    """Obstruction2D, with ``reward=graded`` computed from the same state when asked for."""
+
+    def scene(self) -> Scene:
+        scene = super().scene()
+        if self.options["reward"] == "graded":
+            return replace(scene, reward=graded_obstruction_reward(self._state()))
+        return scene

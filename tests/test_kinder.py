@@ -89,3 +89,47 @@ def test_collect_is_reproducible_and_counts_env_steps():
                for x, y in zip(ta.scenes, tb.scenes))
     assert a.meta["events"]["primitives"] == 6 and a.meta["events"]["env_steps"] > 0
     assert a.feature_names == ("x", "y", "w", "h", "green", "tip")
+    o = ObstructionSim(obstructions=1)
+    assert o.feature_names == ("x", "y", "w", "h", "green")     # no tip: docs/kinder.md
+    o.close()
+
+
+def _clear_share(sim) -> float:
+    """Share of obstructions whose horizontal extent misses the surface's, from KinDER's raw state
+    (rectangles: x, y their lower-left corner, rotated by theta about it)."""
+    import math
+
+    inner = sim.env.unwrapped._object_centric_env
+    state = inner._current_state
+    objs = {o.name: o for o in state}
+
+    def extent(o):
+        x, w, t = state.get(o, "x"), state.get(o, "width"), state.get(o, "theta")
+        h = state.get(o, "height")
+        xs = [x + cx * math.cos(t) - cy * math.sin(t) for cx, cy in ((0, 0), (w, 0), (0, h), (w, h))]
+        return min(xs), max(xs)
+    s0, s1 = extent(objs["target_surface"])
+    obstructions = [o for name, o in objs.items() if o.type.name == "rectangle"]
+    clear = [o for o in obstructions if extent(o)[1] <= s0 or extent(o)[0] >= s1]
+    return len(clear) / len(obstructions)
+
+
+def test_graded_o3_reward_is_half_the_clear_share_until_solved():
+    """reward=graded (docs/kinder.md): 1 when solved, else half the share of obstructions clear of
+    the surface; the hand plan raises it by 1/6 per obstruction put on the table. The default
+    stays KinDER's 0/1."""
+    graded, kinder = ObstructionSim(obstructions=3, reward="graded"), ObstructionSim(obstructions=3)
+    for seed in range(2):
+        scene, plain = graded.reset(seed), kinder.reset(seed)
+        assert scene.reward == pytest.approx(0.5 * _clear_share(graded)) and plain.reward == 0.0
+        plan = [Atom("putOnTable", (a.args[0],)) for a in sorted(scene.truth) if a.predicate == "blocking"]
+        rewards = [scene.reward]
+        for action in plan + [Atom("putOnTarget", ("target_block", "target_surface"))]:
+            scene, plain = graded.step(action), kinder.step(action)
+            rewards.append(scene.reward)
+            assert scene.reward == (1.0 if graded.solved() else pytest.approx(0.5 * _clear_share(graded)))
+            assert plain.reward == (1.0 if kinder.solved() else 0.0)
+        assert rewards[-1] == 1.0 and rewards[-2] == pytest.approx(0.5)
+        assert all(b == pytest.approx(a + 1 / 6) for a, b in zip(rewards[:-2], rewards[1:-1]))
+    graded.close()
+    kinder.close()

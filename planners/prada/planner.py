@@ -53,6 +53,10 @@ class PradaPlanner:
         Option("retries", _retries, None, "a primitive that left the abstract state unchanged is "
                "tried again in that same state at most this many times (then only other first "
                "actions are sampled until the state changes); default: no limit, as libPRADA"),
+        Option("retry_memory", one_of("episode", "visit"), "episode", "episode: a primitive banned by "
+               "retries stays banned in that state for the rest of the episode; visit: the counts are "
+               "forgotten when the state changes, so a return to the state may try it again (the world "
+               "may have changed where the symbols cannot see it; docs/kinder.md)"),
         Option("goal_share", nonnegative, 0.0, "a PPDDL goal scores the probability that all its "
                "literals hold plus this weight times the expected share of them that hold"),
         Option("actions", one_of("all", "legal"), "all", "all: sample every grounding of the rules "
@@ -131,7 +135,7 @@ class PradaPlanner:
         limit = self.opts["retries"]
         if limit is None:
             return []
-        if t == 0:
+        if t == 0 or (self.opts["retry_memory"] == "visit" and self._last is not None and self._last[0] != state):
             self._unchanged.clear()
         elif self._last is not None and self._last[0] == state:
             self._unchanged[self._last] = self._unchanged.get(self._last, 0) + 1
