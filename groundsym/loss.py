@@ -50,6 +50,7 @@ from .errors import UserError
 from .neighbourhood import Neighbourhood
 from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
+from .signature_neighbours import signature_neighbours
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
 
@@ -229,6 +230,7 @@ class Loss:
         self._lock, self._label = data.lock.astype(np.int64), data.label.astype(np.int64)
         self._no_lock, self._no_label = np.zeros_like(self._lock), np.zeros(n, dtype=np.int64)
         self.local_steps = Distance.parse(config.distance).steps_for(data.features.shape[1])  # None: exact
+        self._by_signature = Distance.parse(config.distance).kind == "signature"   # local:1 views, assignment kernel
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -256,7 +258,8 @@ class Loss:
             else:   # prediction: each transition's states under its local mask; reward: whole states, by profile
                 lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
                 terms = (float(np.sum(same)),
-                         self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary)),
+                         self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary),
+                                              signature_neighbours if self._by_signature else None),
                          self._reward_nll(profile_neighbours(up, bp)))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
@@ -282,15 +285,16 @@ class Loss:
 
     # -- the two predictive terms
     def _transition_nll(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
-                        pre: np.ndarray, post: np.ndarray, n_unary: int, n_binary: int) -> float:
-        """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``)."""
+                        pre: np.ndarray, post: np.ndarray, n_unary: int, n_binary: int, search=None) -> float:
+        """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``); ``search``:
+        the neighbour search if not the backend's (``signature_neighbours``)."""
         m = u.shape[1]
         # literals of every candidate symbol, pruned ones included (those are predicted right for
         # sure): a symbol must not pay for merely existing, only for its mispredictions
         n_lit = m * n_unary + m * (m - 1) * n_binary
         if n_lit == 0:
             return 0.0
-        nb = self.backend.neighbours(up, bp, self._lock, self._label)
+        nb = (search or self.backend.neighbours)(up, bp, self._lock, self._label)
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         return float(-self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit).sum())

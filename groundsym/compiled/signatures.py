@@ -1,0 +1,307 @@
+"""Nearest classes of ``local:1`` views as linear assignments over object signatures (compiled).
+
+In a ``local:1`` view (:mod:`groundsym.relational.local`) every kept binary literal has an action
+argument at one end, and the exact distance pins arguments onto arguments (equal lock values).
+So once the arguments are placed, a free object's cost depends on its own match only: the
+distance of two views is the Hamming distance of their argument parts plus a *linear*
+assignment of free objects to free objects, each priced by the Hamming distance of their
+*signatures* (the object's unary bits and its relations to and from each argument, packed in one
+word). The generic pair search (:mod:`.pair_search`) treats the same problem as a quadratic
+assignment over all M objects; here the work is a merge of two sorted signature lists (equal
+signatures cost nothing and, the Hamming distance being a metric, an optimal assignment keeps
+them matched: the Kantorovich-Rubinstein duality, Villani, *Optimal Transport*, 2009, Thm 5.10)
+and a Hungarian method (Kuhn 1955; the shortest-augmenting-path form of Jonker & Volgenant 1987)
+on the few that differ. Candidates are visited in order of the per-bit count bound (each bit's
+count difference is paid at least once), cut at the best distance so far.
+
+The first kernel gives each item its canonical order (arguments by lock value, then free objects
+by signature, then index) and its class key; the second the nearest classes of the lone ones
+with, per hit, the order that attains the distance (``hit_sigma``, canonical positions of the
+query onto those of the hit's class), as :class:`groundsym.neighbourhood.Neighbourhood` holds
+them. Equal keys are equal views up to an argument-respecting isomorphism and the distances are
+the exact view distances (``tests/test_loss_signature.py`` checks both against the exact
+machinery); where several orders attain a distance, the one returned is the assignment's, not the
+exact search's first minimiser, which is why this is a distance of its own
+(``distance=signature``, docs/symbol-search.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import njit, popcount
+
+#: Signature bits at most (the canonical sort packs an object's index below them).
+MAX_SIGNATURE_BITS = 56
+
+
+@njit(cache=True)
+def view_keys(u, b, lock, label, n_args):
+    """Per item (``u`` (N, M, K), ``b`` (N, M, M, L) uint8, ``lock`` (N, M), ``label`` (N,)):
+    its canonical order (N, M), its free objects' signatures in that order (N, M; -1 after the
+    free ones) and its class key (N, R): label, the arguments' lock values, the arguments' unary
+    and argument-to-argument bits, the sorted signatures. ``n_args`` is the most arguments of any
+    item (the key's padding)."""
+    n, m, k = u.shape
+    l = b.shape[3]
+    arg_bits = n_args * k + n_args * n_args * l
+    width = 1 + n_args + arg_bits + m
+    keys = np.full((n, width), -1, dtype=np.int64)
+    perms = np.empty((n, m), dtype=np.int64)
+    sigs = np.full((n, m), -1, dtype=np.int64)
+    args = np.empty(m, dtype=np.int64)
+    packed = np.empty(m, dtype=np.int64)
+    for t in range(n):
+        a = 0
+        for o in range(m):
+            if lock[t, o] != 0:
+                args[a] = o
+                a += 1
+        vals = np.empty(a, dtype=np.int64)
+        for i in range(a):
+            vals[i] = lock[t, args[i]]
+        order = np.argsort(vals)
+        keys[t, 0] = label[t]
+        pos = 1 + n_args
+        for i in range(a):
+            x = args[order[i]]
+            perms[t, i] = x
+            keys[t, 1 + i] = vals[order[i]]
+            for kk in range(k):
+                keys[t, pos] = u[t, x, kk]
+                pos += 1
+            for j in range(a):
+                y = args[order[j]]
+                for ll in range(l):
+                    keys[t, pos] = b[t, x, y, ll]
+                    pos += 1
+        f = 0
+        for o in range(m):
+            if lock[t, o] != 0:
+                continue
+            s = 0
+            bit = 0
+            for kk in range(k):
+                s |= np.int64(u[t, o, kk]) << bit
+                bit += 1
+            for i in range(a):
+                x = perms[t, i]
+                for ll in range(l):
+                    s |= np.int64(b[t, o, x, ll]) << bit
+                    s |= np.int64(b[t, x, o, ll]) << (bit + 1)
+                    bit += 2
+            packed[f] = (s << 6) | o
+            f += 1
+        srt = np.sort(packed[:f])
+        base = 1 + n_args + arg_bits
+        for i in range(f):
+            perms[t, a + i] = srt[i] & 63
+            sigs[t, i] = srt[i] >> 6
+            keys[t, base + i] = srt[i] >> 6
+    return perms, sigs, keys
+
+
+@njit(cache=True)
+def _hungarian(cost, r, assign, pot_u, pot_v, way, minv, used, match):
+    """Minimum-cost perfect matching of an r x r integer cost matrix (rows onto columns, the
+    shortest-augmenting-path Hungarian method); ``assign[i]`` is row i's column. Returns the cost."""
+    for j in range(r + 1):
+        pot_v[j] = 0
+        match[j] = 0
+    for i in range(r + 1):
+        pot_u[i] = 0
+    for i in range(1, r + 1):
+        match[0] = i
+        j0 = 0
+        for j in range(r + 1):
+            minv[j] = 1 << 60
+            used[j] = False
+        while True:
+            used[j0] = True
+            i0 = match[j0]
+            delta = 1 << 60
+            j1 = 0
+            for j in range(1, r + 1):
+                if not used[j]:
+                    cur = cost[i0 - 1, j - 1] - pot_u[i0] - pot_v[j]
+                    if cur < minv[j]:
+                        minv[j] = cur
+                        way[j] = j0
+                    if minv[j] < delta:
+                        delta = minv[j]
+                        j1 = j
+            for j in range(r + 1):
+                if used[j]:
+                    pot_u[match[j]] += delta
+                    pot_v[j] -= delta
+                else:
+                    minv[j] -= delta
+            j0 = j1
+            if match[j0] == 0:
+                break
+        while True:
+            j1 = way[j0]
+            match[j0] = match[j1]
+            j0 = j1
+            if j0 == 0:
+                break
+    total = 0
+    for j in range(1, r + 1):
+        assign[match[j] - 1] = j - 1
+        total += cost[match[j] - 1, j - 1]
+    return total
+
+
+@njit(cache=True)
+def _residuals(sq, sc, nf, rq, rc, common_q, common_c):
+    """Merge two sorted signature lists of ``nf`` free objects: the positions matched by equal
+    signatures (k-th equal with k-th equal) into ``common_q/_c``, the others into ``rq``/``rc``.
+    Returns (number matched, number left on each side)."""
+    i = 0
+    j = 0
+    nc = 0
+    nq = 0
+    nr = 0
+    while i < nf or j < nf:
+        if i < nf and j < nf and sq[i] == sc[j]:
+            common_q[nc] = i
+            common_c[nc] = j
+            nc += 1
+            i += 1
+            j += 1
+        elif j >= nf or (i < nf and sq[i] < sc[j]):
+            rq[nq] = i
+            nq += 1
+            i += 1
+        else:
+            rc[nr] = j
+            nr += 1
+            j += 1
+    return nc, nq
+
+
+@njit(cache=True)
+def nearest_by_signature(keys, sigs, n_free, first, lone, arg_lo, arg_hi, n_bits):
+    """The nearest classes of each lone class (``first[c]``: an item of class c; ``lone``: the lone
+    classes) among the classes with the same label and lock values (key columns ``< arg_lo``),
+    by argument-part Hamming distance (key columns ``arg_lo:arg_hi``) plus the optimal assignment
+    of free-object signatures. Returns best (Q,), hit_query, hit_class, hit_sigma (H, M) sorted by
+    query, then class: ``hit_sigma`` maps the query's canonical positions onto the hit class's."""
+    n_cls = len(first)
+    m = sigs.shape[1]
+    q_n = len(lone)
+    best = np.full(q_n, np.inf)
+    cap = 16
+    hq = np.empty(cap, dtype=np.int64)
+    hc = np.empty(cap, dtype=np.int64)
+    hs = np.empty((cap, m), dtype=np.int64)
+    h = 0
+    dist = np.empty(n_cls, dtype=np.int64)
+    lb = np.empty(n_cls, dtype=np.int64)
+    rq = np.empty(m, dtype=np.int64)
+    rc = np.empty(m, dtype=np.int64)
+    cq = np.empty(m, dtype=np.int64)
+    cc = np.empty(m, dtype=np.int64)
+    cost = np.empty((m, m), dtype=np.int64)
+    assign = np.empty(m, dtype=np.int64)
+    pot_u = np.empty(m + 1, dtype=np.int64)
+    pot_v = np.empty(m + 1, dtype=np.int64)
+    way = np.empty(m + 1, dtype=np.int64)
+    minv = np.empty(m + 1, dtype=np.int64)
+    used = np.empty(m + 1, dtype=np.bool_)
+    match = np.empty(m + 1, dtype=np.int64)
+    for qi in range(q_n):
+        k = lone[qi]
+        iq = first[k]
+        nf = n_free[iq]
+        n_cand = 0
+        for c in range(n_cls):
+            dist[c] = -1
+            if c == k:
+                continue
+            ic = first[c]
+            same = True
+            for col in range(arg_lo):
+                if keys[iq, col] != keys[ic, col]:
+                    same = False
+                    break
+            if not same:
+                continue
+            d = 0
+            for col in range(arg_lo, arg_hi):
+                d += keys[iq, col] != keys[ic, col]
+            nc, nr = _residuals(sigs[iq], sigs[ic], nf, rq, rc, cq, cc)
+            bound = 0
+            for bit in range(n_bits):
+                cnt = 0
+                for x in range(nr):
+                    cnt += (sigs[iq, rq[x]] >> bit) & 1
+                    cnt -= (sigs[ic, rc[x]] >> bit) & 1
+                bound += abs(cnt)
+            lb[c] = d + bound
+            dist[c] = -2          # a candidate, not yet searched
+            n_cand += 1
+        if n_cand == 0:
+            continue
+        cands = np.empty(n_cand, dtype=np.int64)
+        t = 0
+        for c in range(n_cls):
+            if dist[c] == -2:
+                cands[t] = lb[c]
+                t += 1
+        bound_order = np.argsort(cands, kind="mergesort")
+        ids = np.empty(n_cand, dtype=np.int64)
+        t = 0
+        for c in range(n_cls):
+            if dist[c] == -2:
+                ids[t] = c
+                t += 1
+        top = 1 << 60
+        for x in range(n_cand):
+            c = ids[bound_order[x]]
+            if lb[c] > top:
+                break
+            ic = first[c]
+            nc, nr = _residuals(sigs[iq], sigs[ic], nf, rq, rc, cq, cc)
+            d = 0
+            for col in range(arg_lo, arg_hi):
+                d += keys[iq, col] != keys[ic, col]
+            if nr > 0:
+                for y in range(nr):
+                    for z in range(nr):
+                        cost[y, z] = popcount(np.uint64(sigs[iq, rq[y]] ^ sigs[ic, rc[z]]))
+                d += _hungarian(cost, nr, assign, pot_u, pot_v, way, minv, used, match)
+            dist[c] = d
+            if d < top:
+                top = d
+        best[qi] = top
+        a = m - nf
+        for c in range(n_cls):       # the hits in class order, each with its assignment
+            if dist[c] != top:
+                continue
+            ic = first[c]
+            nc, nr = _residuals(sigs[iq], sigs[ic], nf, rq, rc, cq, cc)
+            if nr > 0:
+                for y in range(nr):
+                    for z in range(nr):
+                        cost[y, z] = popcount(np.uint64(sigs[iq, rq[y]] ^ sigs[ic, rc[z]]))
+                _hungarian(cost, nr, assign, pot_u, pot_v, way, minv, used, match)
+            if h == cap:
+                cap *= 2
+                hq2 = np.empty(cap, dtype=np.int64)
+                hc2 = np.empty(cap, dtype=np.int64)
+                hs2 = np.empty((cap, m), dtype=np.int64)
+                hq2[:h] = hq[:h]
+                hc2[:h] = hc[:h]
+                hs2[:h] = hs[:h]
+                hq, hc, hs = hq2, hc2, hs2
+            hq[h] = qi
+            hc[h] = c
+            for p in range(a):
+                hs[h, p] = p
+            for y in range(nc):
+                hs[h, a + cq[y]] = a + cc[y]
+            for y in range(nr):
+                hs[h, a + rq[y]] = a + rc[assign[y]]
+            h += 1
+    return best, hq[:h].copy(), hc[:h].copy(), hs[:h].copy()
