@@ -50,7 +50,7 @@ from .errors import UserError
 from .neighbourhood import Neighbourhood
 from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
-from .signature_neighbours import signature_neighbours
+from .signature_neighbours import argument_view, signature_neighbours
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
 
@@ -256,7 +256,8 @@ class Loss:
                 terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, d.pre, d.post, len(unary), len(binary)),
                          self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label)))
             else:   # prediction: each transition's states under its local mask; reward: whole states, by profile
-                lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
+                view = argument_view if self._by_signature else (lambda *a: local_view(*a, self.local_steps))
+                lu, lb, pre, post = view(u, b, d.pre, d.post, d.lock)
                 terms = (float(np.sum(same)),
                          self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary),
                                               signature_neighbours if self._by_signature else None),

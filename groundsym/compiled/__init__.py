@@ -47,12 +47,12 @@ from .canonical import (COMPILED_CANONICAL, colour_order, colours, individualise
 from .classes import group_keys, neighbourhood, new_intern
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import MAX_OBJECTS, nearest_classes, new_memo
-from .truth import rbf_holds
+from .truth import rbf_holds, rbf_holds_columns, scaled_distances_columns
 
 __all__ = [
     "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
     "mixture_sums", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
-    "rbf_holds", "refine_row", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
+    "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
     "twin_groups_row", "warm_up",
 ]
 
@@ -88,6 +88,8 @@ def warm_up() -> float:
         mixture_sums(item, np.exp(diff), weight, 2)
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
+        rbf_holds_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2))
+        scaled_distances_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2), np.ones(2, dtype=np.bool_))
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):

@@ -36,16 +36,56 @@ MAX_SIGNATURE_BITS = 56
 
 
 @njit(cache=True)
-def view_keys(u, b, lock, label, n_args):
-    """Per item (``u`` (N, M, K), ``b`` (N, M, M, L) uint8, ``lock`` (N, M), ``label`` (N,)):
-    its canonical order (N, M), its free objects' signatures in that order (N, M; -1 after the
-    free ones) and its class key (N, R): label, the arguments' lock values, the arguments' unary
-    and argument-to-argument bits, the sorted signatures. ``n_args`` is the most arguments of any
-    item (the key's padding)."""
-    n, m, k = u.shape
+def argument_literals(u, b, pre, post, lock, n_args):
+    """The ``local:1`` views of each transition's two states with every kept relation as a bit of
+    one object: (2T, M, K + 2 n_args L) uint8, scene ``t`` the state before transition ``t``,
+    ``T + t`` the state after it. Per object: its unary literals, then per argument slot (the
+    arguments by increasing lock value, as chosen in the state before) and binary symbol its
+    relation *to* that argument, and, for an object that is not an argument, the relation *from*
+    it. Every literal ``local:1`` keeps (a binary literal with an argument at one end) is one bit
+    here, once; the others are dropped (they are cleared in both states of a view)."""
+    n = len(pre)
+    m, k = u.shape[1], u.shape[2]
     l = b.shape[3]
-    arg_bits = n_args * k + n_args * n_args * l
-    width = 1 + n_args + arg_bits + m
+    width = k + 2 * n_args * l
+    out = np.zeros((2 * n, m, width), dtype=np.uint8)
+    slots = np.empty(m, dtype=np.int64)
+    for t in range(n):
+        a = 0
+        for o in range(m):
+            if lock[t, o] != 0:
+                slots[a] = o
+                a += 1
+        vals = np.empty(a, dtype=np.int64)
+        for i in range(a):
+            vals[i] = lock[t, slots[i]]
+        order = np.argsort(vals)
+        for half in range(2):
+            s = pre[t] if half == 0 else post[t]
+            row = t + half * n
+            for o in range(m):
+                for kk in range(k):
+                    out[row, o, kk] = u[s, o, kk]
+                free = lock[t, o] == 0
+                for i in range(a):
+                    x = slots[order[i]]
+                    for ll in range(l):
+                        out[row, o, k + 2 * (i * l + ll)] = b[s, o, x, ll]
+                        if free:
+                            out[row, o, k + 2 * (i * l + ll) + 1] = b[s, x, o, ll]
+    return out
+
+
+@njit(cache=True)
+def view_keys(u, lock, label, n_args):
+    """Per item (``u`` (N, M, B) uint8 bits of :func:`argument_literals`, ``lock`` (N, M),
+    ``label`` (N,)): its canonical order (N, M: arguments by lock value, then free objects by
+    signature, then index), its free objects' signatures (their B bits packed) in that order (N,
+    M; -1 after the free ones) and its class key (N, R): label, the arguments' lock values, the
+    arguments' bits, the sorted signatures. ``n_args`` is the most arguments of any item (the
+    key's padding)."""
+    n, m, w = u.shape
+    width = 1 + n_args + n_args * w + m
     keys = np.full((n, width), -1, dtype=np.int64)
     perms = np.empty((n, m), dtype=np.int64)
     sigs = np.full((n, m), -1, dtype=np.int64)
@@ -67,33 +107,20 @@ def view_keys(u, b, lock, label, n_args):
             x = args[order[i]]
             perms[t, i] = x
             keys[t, 1 + i] = vals[order[i]]
-            for kk in range(k):
-                keys[t, pos] = u[t, x, kk]
+            for bit in range(w):
+                keys[t, pos] = u[t, x, bit]
                 pos += 1
-            for j in range(a):
-                y = args[order[j]]
-                for ll in range(l):
-                    keys[t, pos] = b[t, x, y, ll]
-                    pos += 1
         f = 0
         for o in range(m):
             if lock[t, o] != 0:
                 continue
             s = 0
-            bit = 0
-            for kk in range(k):
-                s |= np.int64(u[t, o, kk]) << bit
-                bit += 1
-            for i in range(a):
-                x = perms[t, i]
-                for ll in range(l):
-                    s |= np.int64(b[t, o, x, ll]) << bit
-                    s |= np.int64(b[t, x, o, ll]) << (bit + 1)
-                    bit += 2
+            for bit in range(w):
+                s |= np.int64(u[t, o, bit]) << bit
             packed[f] = (s << 6) | o
             f += 1
         srt = np.sort(packed[:f])
-        base = 1 + n_args + arg_bits
+        base = 1 + n_args + n_args * w
         for i in range(f):
             perms[t, a + i] = srt[i] & 63
             sigs[t, i] = srt[i] >> 6
