@@ -11,6 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from .grounding import Grounding
+from .segments import AVAILABLE as segments_compiled_ok, segment_products
+
+
+def segments_compiled() -> bool:
+    """Whether the per-action transition kernel is compiled (numba installed)."""
+    return segments_compiled_ok
 
 RULE_MIN_PROB = 0.03   # libPRADA prunes a rule whose context probability falls below this
 
@@ -62,16 +68,24 @@ def action_weights(g: Grounding, U: np.ndarray) -> np.ndarray:
     return np.add.reduceat(U * g.manipulating, g.starts, axis=1)
 
 
-def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray, segments: bool = True) -> np.ndarray:
     """Marginals after each row's chosen action (``-1`` = none: everything persists).
 
     The rule tables are sparse (a rule touches a handful of atoms) and only the columns some rule
-    touches change: the products cost the tables' non-zeros times the rows, not rules x atoms x rows."""
-    Usel = U * (g.rule_group[None, :] == chosen[:, None])
+    touches change: the products cost the tables' non-zeros times the rows, not rules x atoms x rows.
+    Sparse tables (large groundings) are walked per sample over its action's rules only
+    (:mod:`planners.prada.segments`, the same bits); ``segments=False`` takes the product with the
+    whole tables there too (the code before; benchmarks/bench_prada_objects.py compares them)."""
     cols, touched, set_true = g.changing
     if isinstance(touched, np.ndarray):
+        Usel = U * (g.rule_group[None, :] == chosen[:, None])
         off, on = Usel @ touched, Usel @ set_true
+    elif segments and segments_compiled():
+        indptr, indices, tv, sv = g.changing_rows
+        off, on = segment_products(U, chosen.astype(np.int64), g.starts.astype(np.int64), len(g.rule_group),
+                                   indptr, indices, tv, sv, touched.shape[1])
     else:
+        Usel = U * (g.rule_group[None, :] == chosen[:, None])
         off, on = (touched.T @ Usel.T).T, (set_true.T @ Usel.T).T
     if cols is None:
         return g.derive(B * (1.0 - off) + on)
