@@ -93,3 +93,20 @@ def test_a_decision_is_the_same_with_segments_and_with_the_whole_tables(monkeypa
             out.append((d.action, d.expected_value, d.info))
         return out
     assert decisions(True) == decisions(False)
+
+
+@pytest.mark.parametrize("min_prob", [0.0, 0.03, 0.5])
+def test_context_probabilities_give_numpys_bits(min_prob):
+    """The compiled context probabilities against numpy's gather, where and product (the code
+    before), on mixed beliefs over the derived tower rules, with some literals made negative."""
+    from planners.prada.contexts import context_probabilities
+
+    objects = tuple("abcdef")
+    g, rules, meta = _sparse_grounding(objects, False)
+    B, rng = _beliefs(g, rules, meta, objects, 200, 2)
+    sign = g.sign ^ (rng.random(g.sign.shape) < 0.3)      # negative literals too (these rules have none)
+    lit = B[:, g.ctx]
+    lit = np.where(sign, lit, 1.0 - lit)
+    want = lit.prod(axis=2)
+    want[want < min_prob] = 0.0
+    assert np.array_equal(context_probabilities(B, g.ctx, sign, min_prob), want)
