@@ -110,3 +110,18 @@ def test_context_probabilities_give_numpys_bits(min_prob):
     want = lit.prod(axis=2)
     want[want < min_prob] = 0.0
     assert np.array_equal(context_probabilities(B, g.ctx, sign, min_prob), want)
+
+
+@pytest.mark.parametrize("share", [0.05, 0.3, 0.9])
+def test_rule_probabilities_over_the_live_contexts_give_the_bits_of_all(share):
+    """``frontier._alone`` (logarithms and exponentials where a context can hold) against
+    ``phi * _none_of_the_others(phi)`` over every entry (the code before), with certain rivals
+    (probability 1) among them."""
+    from planners.prada.frontier import _alone, _none_of_the_others
+
+    objects = tuple("abcdefg")
+    g, _, _ = _sparse_grounding(objects, False)
+    rng = np.random.default_rng(4)
+    phi = rng.random((150, len(g.rule_group))) * (rng.random((150, len(g.rule_group))) < share)
+    phi[rng.random(phi.shape) < 0.02] = 1.0
+    assert np.array_equal(_alone(phi, g.starts, g.rule_group), phi * _none_of_the_others(phi, g.starts, g.rule_group))
