@@ -3,12 +3,9 @@ as the product with the whole sparse tables (the code before), and the same deci
 
 from __future__ import annotations
 
-from functools import partial
-
 import numpy as np
 import pytest
 
-import planners.prada.core as prada_core
 from conftest import DATA
 from groundsym.planner import Observation, PlanningModel
 from groundsym.rules.io import read_rules
@@ -55,8 +52,9 @@ def test_segments_give_the_bits_of_the_whole_table_product(select_columns):
     B, rng = _beliefs(g, rules, meta, objects, 300, 1)
     U = rule_probabilities(g, B)
     chosen = rng.integers(-1, len(g.actions), len(B))
-    whole = transition(g, B, U, chosen, segments=False)
+    whole = transition(g, B, U, chosen, "tables")
     assert np.array_equal(transition(g, B, U, chosen), whole)
+    assert np.array_equal(transition(g, B, U, chosen, "segments"), whole)
     # and against a loop over each sample's own rules (an independent reference of the values)
     cols, touched, set_true = g.changing
     t, s = touched.toarray(), set_true.toarray()
@@ -83,16 +81,15 @@ def test_a_decision_is_the_same_with_segments_and_with_the_whole_tables(monkeypa
     obs = Observation(objects, (), frozenset({Atom("on", ("c0", "c1")), Atom("on", ("c2", "c3"))}))
     monkeypatch.setattr(grounding, "DENSE_MAX_ENTRIES", 0)
 
-    def decisions(segments: bool):
-        monkeypatch.setattr(prada_core, "transition", partial(transition, segments=segments))
+    def decisions(mode: str):
         out = []
         for seed in range(3):
-            planner = PradaPlanner(model, {"samples": "200"}, seed)
+            planner = PradaPlanner(model, {"samples": "200", "transition": mode}, seed)
             d = planner.choose(obs)
             assert not isinstance(planner.core(objects, obs.state).g.changing[1], np.ndarray)
             out.append((d.action, d.expected_value, d.info))
         return out
-    assert decisions(True) == decisions(False)
+    assert decisions("auto") == decisions("tables") == decisions("segments")
 
 
 @pytest.mark.parametrize("min_prob", [0.0, 0.03, 0.5])
@@ -125,3 +122,18 @@ def test_rule_probabilities_over_the_live_contexts_give_the_bits_of_all(share):
     phi = rng.random((150, len(g.rule_group))) * (rng.random((150, len(g.rule_group))) < share)
     phi[rng.random(phi.shape) < 0.02] = 1.0
     assert np.array_equal(_alone(phi, g.starts, g.rule_group), phi * _none_of_the_others(phi, g.starts, g.rule_group))
+
+
+def test_segments_on_dense_tables_differ_from_blas_in_the_last_bit_at_most():
+    """``transition=segments`` on dense tables (what ``auto`` leaves to BLAS): the same marginals
+    up to rounding (BLAS fuses multiplications and additions), and ``auto`` keeps BLAS's bits there."""
+    objects = tuple("abcde")
+    rules, meta = read_rules(DATA / "nid_tower_derived.rules.json")
+    g = ground_rules(rules, objects, meta["predicates"])
+    assert isinstance(g.changing[1], np.ndarray)
+    B, rng = _beliefs(g, rules, meta, objects, 200, 3)
+    U = rule_probabilities(g, B)
+    chosen = rng.integers(-1, len(g.actions), len(B))
+    tables = transition(g, B, U, chosen, "tables")
+    assert np.array_equal(transition(g, B, U, chosen), tables)
+    np.testing.assert_allclose(transition(g, B, U, chosen, "segments"), tables, rtol=0, atol=1e-15)

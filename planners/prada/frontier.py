@@ -12,12 +12,7 @@ import numpy as np
 
 from .contexts import context_probabilities
 from .grounding import Grounding
-from .segments import AVAILABLE as segments_compiled_ok, segment_products
-
-
-def segments_compiled() -> bool:
-    """Whether the per-action transition kernel is compiled (numba installed)."""
-    return segments_compiled_ok
+from .segments import AVAILABLE as COMPILED, segment_products
 
 RULE_MIN_PROB = 0.03   # libPRADA prunes a rule whose context probability falls below this
 
@@ -27,7 +22,7 @@ def rule_probabilities(g: Grounding, B: np.ndarray, min_prob: float = RULE_MIN_P
     A context probability below ``min_prob`` counts as 0 (libPRADA's pruning)."""
     if not len(g.rule_group):
         return np.zeros((B.shape[0], 0))
-    if g.ctx.shape[1] < 8 and segments_compiled():    # (numpy multiplies fewer than 8 factors in order)
+    if g.ctx.shape[1] < 8 and COMPILED:    # (numpy multiplies fewer than 8 factors in order)
         phi = context_probabilities(np.ascontiguousarray(B), g.ctx, g.sign, float(min_prob))
     else:
         lit = B[:, g.ctx]
@@ -96,25 +91,29 @@ def action_weights(g: Grounding, U: np.ndarray) -> np.ndarray:
     return np.add.reduceat(U * g.manipulating, g.starts, axis=1)
 
 
-def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray, segments: bool = True) -> np.ndarray:
+#: How :func:`transition` multiplies the chosen rules into the atoms (PRADA's ``transition`` option).
+TRANSITION_MODES = ("auto", "segments", "tables")
+
+
+def transition(g: Grounding, B: np.ndarray, U: np.ndarray, chosen: np.ndarray, mode: str = "auto") -> np.ndarray:
     """Marginals after each row's chosen action (``-1`` = none: everything persists).
 
     The rule tables are sparse (a rule touches a handful of atoms) and only the columns some rule
-    touches change: the products cost the tables' non-zeros times the rows, not rules x atoms x rows.
-    Sparse tables (large groundings) are walked per sample over its action's rules only
-    (:mod:`planners.prada.segments`, the same bits); ``segments=False`` takes the product with the
-    whole tables there too (the code before; benchmarks/bench_prada_objects.py compares them)."""
+    touches change: the products cost the tables' non-zeros times the rows, not rules x atoms x
+    rows. ``mode``: ``tables`` multiplies the samples' chosen rules into the whole tables (BLAS on
+    dense tables, scipy on sparse ones: the code before); ``segments`` walks each sample's own
+    action's rules only (:mod:`planners.prada.segments`); ``auto`` walks the segments where the
+    tables are sparse (large groundings: the same bits as scipy's product) and keeps BLAS on dense
+    ones (whose fused multiply-adds give other last bits in about 0.05% of the marginals)."""
     cols, touched, set_true = g.changing
-    if isinstance(touched, np.ndarray):
-        Usel = U * (g.rule_group[None, :] == chosen[:, None])
-        off, on = Usel @ touched, Usel @ set_true
-    elif segments and segments_compiled():
+    dense = isinstance(touched, np.ndarray)
+    if mode == "segments" or (mode == "auto" and not dense and COMPILED):
         indptr, indices, tv, sv = g.changing_rows
         off, on = segment_products(U, chosen.astype(np.int64), g.starts.astype(np.int64), len(g.rule_group),
                                    indptr, indices, tv, sv, touched.shape[1])
     else:
         Usel = U * (g.rule_group[None, :] == chosen[:, None])
-        off, on = (touched.T @ Usel.T).T, (set_true.T @ Usel.T).T
+        off, on = (Usel @ touched, Usel @ set_true) if dense else ((touched.T @ Usel.T).T, (set_true.T @ Usel.T).T)
     if cols is None:
         return g.derive(B * (1.0 - off) + on)
     out = B.copy()

@@ -96,10 +96,12 @@ class Grounding:
 
     @cached_property
     def changing_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The sparse tables of :attr:`changing` by rule, on one CSR structure (indptr, columns,
-        touched, set_true): what :mod:`planners.prada.segments` walks per sample."""
+        """The tables of :attr:`changing` by rule, on one CSR structure (indptr, columns, touched,
+        set_true): what :mod:`planners.prada.segments` walks per sample."""
+        from scipy.sparse import csr_matrix
+
         _, touched, set_true = self.changing
-        return csr_union(touched, set_true)
+        return csr_union(csr_matrix(touched), csr_matrix(set_true))
 
 
 def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, int],
