@@ -30,9 +30,28 @@ from __future__ import annotations
 import numpy as np
 
 from .base import njit, popcount
+from .pair_search import _hungarian
 
 #: Signature bits at most (the canonical sort packs an object's index below them).
 MAX_SIGNATURE_BITS = 56
+
+
+@njit(cache=True)
+def _arguments(lock_row, out):
+    """The arguments of one transition (lock != 0) by increasing lock value into ``out``; their count."""
+    a = 0
+    for o in range(len(lock_row)):
+        if lock_row[o] != 0:
+            out[a] = o
+            a += 1
+    vals = np.empty(a, dtype=np.int64)
+    for i in range(a):
+        vals[i] = lock_row[out[i]]
+    order = np.argsort(vals)
+    found = out[:a].copy()
+    for i in range(a):
+        out[i] = found[order[i]]
+    return a
 
 
 @njit(cache=True)
@@ -51,15 +70,7 @@ def argument_literals(u, b, pre, post, lock, n_args):
     out = np.zeros((2 * n, m, width), dtype=np.uint8)
     slots = np.empty(m, dtype=np.int64)
     for t in range(n):
-        a = 0
-        for o in range(m):
-            if lock[t, o] != 0:
-                slots[a] = o
-                a += 1
-        vals = np.empty(a, dtype=np.int64)
-        for i in range(a):
-            vals[i] = lock[t, slots[i]]
-        order = np.argsort(vals)
+        a = _arguments(lock[t], slots)
         for half in range(2):
             s = pre[t] if half == 0 else post[t]
             row = t + half * n
@@ -68,7 +79,7 @@ def argument_literals(u, b, pre, post, lock, n_args):
                     out[row, o, kk] = u[s, o, kk]
                 free = lock[t, o] == 0
                 for i in range(a):
-                    x = slots[order[i]]
+                    x = slots[i]
                     for ll in range(l):
                         out[row, o, k + 2 * (i * l + ll)] = b[s, o, x, ll]
                         if free:
@@ -92,21 +103,13 @@ def view_keys(u, lock, label, n_args):
     args = np.empty(m, dtype=np.int64)
     packed = np.empty(m, dtype=np.int64)
     for t in range(n):
-        a = 0
-        for o in range(m):
-            if lock[t, o] != 0:
-                args[a] = o
-                a += 1
-        vals = np.empty(a, dtype=np.int64)
-        for i in range(a):
-            vals[i] = lock[t, args[i]]
-        order = np.argsort(vals)
+        a = _arguments(lock[t], args)
         keys[t, 0] = label[t]
         pos = 1 + n_args
         for i in range(a):
-            x = args[order[i]]
+            x = args[i]
             perms[t, i] = x
-            keys[t, 1 + i] = vals[order[i]]
+            keys[t, 1 + i] = lock[t, x]
             for bit in range(w):
                 keys[t, pos] = u[t, x, bit]
                 pos += 1
@@ -126,57 +129,6 @@ def view_keys(u, lock, label, n_args):
             sigs[t, i] = srt[i] >> 6
             keys[t, base + i] = srt[i] >> 6
     return perms, sigs, keys
-
-
-@njit(cache=True)
-def _hungarian(cost, r, assign, pot_u, pot_v, way, minv, used, match):
-    """Minimum-cost perfect matching of an r x r integer cost matrix (rows onto columns, the
-    shortest-augmenting-path Hungarian method); ``assign[i]`` is row i's column. Returns the cost."""
-    for j in range(r + 1):
-        pot_v[j] = 0
-        match[j] = 0
-    for i in range(r + 1):
-        pot_u[i] = 0
-    for i in range(1, r + 1):
-        match[0] = i
-        j0 = 0
-        for j in range(r + 1):
-            minv[j] = 1 << 60
-            used[j] = False
-        while True:
-            used[j0] = True
-            i0 = match[j0]
-            delta = 1 << 60
-            j1 = 0
-            for j in range(1, r + 1):
-                if not used[j]:
-                    cur = cost[i0 - 1, j - 1] - pot_u[i0] - pot_v[j]
-                    if cur < minv[j]:
-                        minv[j] = cur
-                        way[j] = j0
-                    if minv[j] < delta:
-                        delta = minv[j]
-                        j1 = j
-            for j in range(r + 1):
-                if used[j]:
-                    pot_u[match[j]] += delta
-                    pot_v[j] -= delta
-                else:
-                    minv[j] -= delta
-            j0 = j1
-            if match[j0] == 0:
-                break
-        while True:
-            j1 = way[j0]
-            match[j0] = match[j1]
-            j0 = j1
-            if j0 == 0:
-                break
-    total = 0
-    for j in range(1, r + 1):
-        assign[match[j] - 1] = j - 1
-        total += cost[match[j] - 1, j - 1]
-    return total
 
 
 @njit(cache=True)
@@ -297,7 +249,7 @@ def nearest_by_signature(keys, sigs, n_free, first, lone, arg_lo, arg_hi, n_bits
                 for y in range(nr):
                     for z in range(nr):
                         cost[y, z] = popcount(np.uint64(sigs[iq, rq[y]] ^ sigs[ic, rc[z]]))
-                d += _hungarian(cost, nr, assign, pot_u, pot_v, way, minv, used, match)
+                d += _hungarian(cost, nr, pot_u, pot_v, match, way, minv, used)
             dist[c] = d
             if d < top:
                 top = d
@@ -312,7 +264,9 @@ def nearest_by_signature(keys, sigs, n_free, first, lone, arg_lo, arg_hi, n_bits
                 for y in range(nr):
                     for z in range(nr):
                         cost[y, z] = popcount(np.uint64(sigs[iq, rq[y]] ^ sigs[ic, rc[z]]))
-                _hungarian(cost, nr, assign, pot_u, pot_v, way, minv, used, match)
+                _hungarian(cost, nr, pot_u, pot_v, match, way, minv, used)
+                for z in range(1, nr + 1):        # match[j]: the row matched to column j (1-based)
+                    assign[match[z] - 1] = z - 1
             if h == cap:
                 cap *= 2
                 hq2 = np.empty(cap, dtype=np.int64)
