@@ -141,7 +141,7 @@ def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, eval
 def _time_terms(loss: Loss) -> dict[str, float]:
     """CPU seconds of the loss's prediction term (its neighbours and mixtures) and of its reward
     term (the reward's neighbours, exact or by profile, and its mixture), added up while ``loss``
-    runs: the reward term is reported apart (issue 35; issue 38 replaces it)."""
+    runs: the reward term is reported apart (a new reward model is to replace it)."""
     import groundsym.loss as loss_module
     spent = {"prediction": 0.0, "reward": 0.0}
 
