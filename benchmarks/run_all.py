@@ -26,6 +26,7 @@ QUICK: dict[str, list[str]] = {
     "bench_pass.py": ["--evals", "60", "--rounds", "1"],
     "bench_ppddl_sim.py": ["--steps", "100", "--rounds", "1"],
     "bench_prada.py": ["--repeats", "1"],
+    "bench_reward_term.py": ["--sets", "20", "--rounds", "1", "--symbols", "1+1"],
     "bench_ray.py": ["--rounds", "1", "--", "--sim", "tower", "--methods", "random", "--runs", "2", "--evals", "150",
                      "--steps", "2", "--starts", "1", "--model-traces", "1", "--symbol-data", "10", "--seed", "0"],
     "bench_rules.py": [],

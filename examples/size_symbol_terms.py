@@ -23,6 +23,10 @@ how much of the price is the split itself, and what size is worth to the predict
 The back-off here is a numpy sketch for this measurement, not a loss option.
 
     python examples/size_symbol_terms.py --seeds 1001-1005 [--backoff]
+    python examples/size_symbol_terms.py --seeds 1001-1005 --loss reward_model=linear --loss static=backoff --loss sigma_factor=0.1
+
+The second line measures the loss settings that let a size symbol pay (docs/symbols.md, "Keeping a
+size symbol"): ``static=backoff`` is the back-off above as a loss option.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from groundsym.collect import collect_traces  # noqa: E402
+from groundsym.commands.learn import loss_config  # noqa: E402
 from groundsym.grounding import match_symbols  # noqa: E402
 from groundsym.loss import Loss, LossConfig, prepare  # noqa: E402
 from groundsym.mixtures import mixture_ll, reward_entries, transition_entries  # noqa: E402
@@ -114,8 +119,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="1001-1005", help="data seeds (collect --traces 16 --seed S)")
     ap.add_argument("--backoff", action="store_true", help="also the terms under back-off neighbour classes")
+    ap.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
+                    help="a loss setting, as groundsym learn --loss takes it (repeatable), e.g. reward_model=linear")
     args = ap.parse_args()
-    sim, cfg = make_sim("tower", {}), LossConfig()
+    if args.backoff and args.loss:
+        ap.error("--backoff sketches the back-off on the default loss; give --loss static=backoff instead")
+    sim, cfg = make_sim("tower", {}), loss_config(args.loss)
     print("| seed | F1 inhand, on, big | effect | prediction | reward | regulariser | total |"
           + (" back-off: prediction | reward | total |" if args.backoff else ""))
     print("|---|---|---|---|---|---|---|" + ("---|---|---|" if args.backoff else ""))

@@ -23,6 +23,7 @@ import numpy as np
 from . import compiled
 from .mixtures import mixture_finish, mixture_ll, reward_entries, transition_entries
 from .neighbourhood import Neighbourhood, NeighbourhoodEngine
+from .reward_term import count_features
 from .relational import canonical_forms
 from .symbols import Symbol, binary_truth, unary_truth
 
@@ -64,6 +65,10 @@ class Backend(ABC):
         :func:`groundsym.mixtures.transition_entries`)."""
 
     @abstractmethod
+    def count_features(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The linear reward term's relational counts of states ``u``, ``b`` (:mod:`groundsym.reward_term`)."""
+
+    @abstractmethod
     def reward_ll(self, nb: Neighbourhood, reward: np.ndarray, c0: float, two_s2: float) -> np.ndarray:
         """Per transition, ``log P(r_t | s_t)``: the mixture of the Gaussians ``c0 - (r_t - r_j)^2 /
         two_s2`` around its neighbours' rewards (see :func:`groundsym.mixtures.reward_entries`)."""
@@ -85,6 +90,9 @@ class NumpyBackend(Backend):
         item, mis, weight = transition_entries(u, b, pre, post, nb, changes)
         lp = mis * log_eps + (n_lit - mis) * log_ok
         return mixture_ll(item, lp, weight, len(pre))
+
+    def count_features(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return count_features(u, b)
 
     def reward_ll(self, nb: Neighbourhood, reward: np.ndarray, c0: float, two_s2: float) -> np.ndarray:
         item, other = reward_entries(nb)
@@ -161,6 +169,9 @@ class NumbaBackend(Backend):
             u, b, pre, post, nb.perms, nb.cls, nb.lone, nb.hit_query, nb.hit_class, nb.hit_sigma, changes,
             log_eps, log_ok, n_lit)
         return mixture_finish(top, *compiled.mixture_sums(item, np.exp(diff), weight, len(pre)))
+
+    def count_features(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return compiled.count_features(np.ascontiguousarray(u), np.ascontiguousarray(b))
 
     def reward_ll(self, nb: Neighbourhood, reward: np.ndarray, c0: float, two_s2: float) -> np.ndarray:
         item, diff, top = compiled.reward_mixture(nb.cls, nb.lone, nb.hit_query, nb.hit_class, reward, c0, two_s2)

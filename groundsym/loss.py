@@ -51,11 +51,14 @@ from .neighbourhood import Neighbourhood
 from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
 from .signature_neighbours import argument_view, signature_neighbours
+from .reward_term import linear_reward_nll
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
 
 
 PREDICT_MODES = ("changes", "successor")
+REWARD_MODELS = ("neighbour", "linear")
+STATIC_MODES = ("split", "backoff")
 
 
 @dataclass(frozen=True)
@@ -73,11 +76,14 @@ class LossConfig:
     predict: str = "changes"       # what a neighbour at distance > 0 predicts: its "changes" or its "successor"
     width_cap: float = 3.0         # widths beyond this x the spread cost as at it (0: no cap)
     distance: str = "exact"        # the neighbours' distance: exact, local[:K] or auto (groundsym/relational/local.py)
+    reward_model: str = "neighbour"  # the reward term's predictor: "neighbour" or "linear" (groundsym/reward_term.py)
+    static: str = "split"          # static symbols in the prediction term's classes: "split" them, or "backoff"
 
     def __post_init__(self) -> None:
         Distance.parse(self.distance)
-        if self.predict not in PREDICT_MODES:
-            raise ValueError(f"predict must be one of {', '.join(PREDICT_MODES)}, got {self.predict!r}")
+        for name, allowed in (("predict", PREDICT_MODES), ("reward_model", REWARD_MODELS), ("static", STATIC_MODES)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {getattr(self, name)!r}")
         if not 0 < self.noise < 0.5:
             raise ValueError(f"noise must be in (0, 0.5), got {self.noise}")
         for f in fields(self):
@@ -90,12 +96,19 @@ class LossConfig:
                 raise ValueError(f"{f.name} must be non-negative, got {v}")
 
     def to_doc(self) -> dict[str, Any]:
-        """The settings as JSON; ``distance`` only when it is not the exact one, so the files of
-        runs with the default distance read as before it existed."""
+        """The settings as JSON; the settings added later (``distance``, ``reward_model``,
+        ``static``) only when they differ from what a file without them means."""
         doc = asdict(self)
-        if doc["distance"] == "exact":
-            del doc["distance"]
+        for name, before in _LATER_SETTINGS.items():
+            if doc[name] == before:
+                del doc[name]
         return doc
+
+
+# settings added after files were first written, with the value a file without them means: left
+# out of a file at that value, so such files read as before the settings existed (and a file of
+# another value always names it, whatever the current default)
+_LATER_SETTINGS = {"distance": "exact", "reward_model": "neighbour", "static": "split"}
 
 
 @dataclass(frozen=True)
@@ -203,13 +216,14 @@ class _SymbolTruth:
     packed: bytes
     unchanged: np.ndarray
     reg: float
+    static: bool
 
     @staticmethod
     def of(col: np.ndarray, reg: float, data: LossData) -> "_SymbolTruth":
         truth = np.ascontiguousarray(col, dtype=np.uint8)
         changes = truth[data.pre] != truth[data.post]
         unchanged = ~changes.reshape(len(changes), -1).any(axis=1)
-        return _SymbolTruth(truth, varies(col), np.packbits(truth).tobytes(), unchanged, reg)
+        return _SymbolTruth(truth, varies(col), np.packbits(truth).tobytes(), unchanged, reg, bool(unchanged.all()))
 
 
 class Loss:
@@ -246,28 +260,77 @@ class Loss:
         key = (len(unary), len(binary), tuple(e.packed for e in au), tuple(e.packed for e in ab))
         terms = self._abstraction_cache.get(key)
         if terms is None:
-            same = d.changed.copy()
-            for e in au + ab:
-                same &= e.unchanged
-            u = np.stack([e.truth for e in au], axis=-1) if au else np.zeros(d.features.shape[:-1] + (0,), np.uint8)
-            b = np.stack([e.truth for e in ab], axis=-1) if ab else np.zeros(d.pairs.shape[:-1] + (0,), np.uint8)
-            up, bp = u[d.pre], b[d.pre]
-            if self.local_steps is None:
-                terms = (float(np.sum(same)), self._transition_nll(u, b, up, bp, d.pre, d.post, len(unary), len(binary)),
-                         self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label)))
-            else:   # prediction: each transition's states under its local mask; reward: whole states, by profile
-                view = argument_view if self._by_signature else (lambda *a: local_view(*a, self.local_steps))
-                lu, lb, pre, post = view(u, b, d.pre, d.post, d.lock)
-                terms = (float(np.sum(same)),
-                         self._transition_nll(lu, lb, lu[pre], lb[pre], pre, post, len(unary), len(binary),
-                                              signature_neighbours if self._by_signature else None),
-                         self._reward_nll(profile_neighbours(up, bp)))
+            terms = self._terms(au, ab, len(unary), len(binary))
             if len(self._abstraction_cache) >= 20_000:
                 self._abstraction_cache.clear()
             self._abstraction_cache[key] = terms
         effect, trans, rew = terms
         return LossTerms(c.effect_weight * effect, c.transition_weight * trans, c.reward_weight * rew,
                          c.reg_weight * reg)
+
+    def _terms(self, au: list["_SymbolTruth"], ab: list["_SymbolTruth"], n_unary: int,
+               n_binary: int) -> tuple[float, float, float]:
+        """The effect, prediction and reward terms (unweighted) of the active symbols ``au``, ``ab``
+        out of ``n_unary`` + ``n_binary`` candidates."""
+        d = self.data
+        same = d.changed.copy()
+        for e in au + ab:
+            same &= e.unchanged
+        u, b = self._stack(au, ab)
+        up, bp = u[d.pre], b[d.pre]
+        if self.config.static == "backoff" and any(e.static for e in au + ab):
+            cu, cb = self._stack([e for e in au if not e.static], [e for e in ab if not e.static])
+            ll = self._transition_ll_backoff(u, b, cu, cb, n_unary, n_binary)
+        else:
+            ll = self._transition_ll(u, b, n_unary, n_binary)[0]
+        trans = 0.0 - float(ll.sum())     # 0.0, not -0.0, without literals
+        if self.config.reward_model == "linear":
+            rew = linear_reward_nll(self.backend.count_features(up, bp), d.reward, self.sigma)
+        elif self.local_steps is None:
+            rew = self._reward_nll(self.backend.neighbours(up, bp, self._no_lock, self._no_label))
+        else:   # the reward's neighbours under the local distance: whole states, by profile
+            rew = self._reward_nll(profile_neighbours(up, bp))
+        return float(np.sum(same)), trans, rew
+
+    def _stack(self, au: list["_SymbolTruth"], ab: list["_SymbolTruth"]) -> tuple[np.ndarray, np.ndarray]:
+        """The truth of the symbols ``au``, ``ab`` as (S, M, K) and (S, M, M, L) arrays."""
+        d = self.data
+        u = np.stack([e.truth for e in au], axis=-1) if au else np.zeros(d.features.shape[:-1] + (0,), np.uint8)
+        b = np.stack([e.truth for e in ab], axis=-1) if ab else np.zeros(d.pairs.shape[:-1] + (0,), np.uint8)
+        return u, b
+
+    def _transition_ll(self, u: np.ndarray, b: np.ndarray, n_unary: int,
+                       n_binary: int) -> tuple[np.ndarray, Neighbourhood | None]:
+        """Per transition ``log P(s_t+1 | s_t, a_t)`` and the neighbourhood it came from (None
+        when no literal exists), under the exact or the local distance."""
+        d = self.data
+        if self.local_steps is None:
+            return self._transition_ll_on(u, b, u[d.pre], b[d.pre], d.pre, d.post, n_unary, n_binary)
+        if self._by_signature:   # local:1's views as object bits, matched by signature assignment
+            su, sb, pre, post = argument_view(u, b, d.pre, d.post, d.lock)
+            return self._transition_ll_on(su, sb, su[pre], sb[pre], pre, post, n_unary, n_binary, signature_neighbours)
+        # prediction: each transition's states under its local mask
+        lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
+        return self._transition_ll_on(lu, lb, lu[pre], lb[pre], pre, post, n_unary, n_binary)
+
+    def _transition_ll_backoff(self, u: np.ndarray, b: np.ndarray, cu: np.ndarray, cb: np.ndarray,
+                               n_unary: int, n_binary: int) -> np.ndarray:
+        """The prediction term with static symbols as a back-off refinement (``static="backoff"``).
+
+        A static symbol (it never changes on the data: cube size) is never mispredicted; what it
+        changes is the neighbours. Splitting the classes of isomorphic states by it leaves many
+        transitions without an exact twin, predicted by a farther state. Here a transition whose
+        class under *all* symbols holds another member is predicted by those members (they agree
+        with it in everything); any other is predicted by its neighbours under the symbols that
+        change (``cu``, ``cb``), which keep the static literals as they are. That is Katz's
+        back-off for sparse counts (Katz 1987, *Estimation of probabilities from sparse data*,
+        IEEE TASSP 35) applied to the nearest-neighbour classes."""
+        full, nb = self._transition_ll(u, b, n_unary, n_binary)
+        coarse, _ = self._transition_ll(cu, cb, n_unary, n_binary)
+        if nb is None:
+            return coarse
+        sizes = np.bincount(nb.cls)
+        return np.where(sizes[nb.cls] > 1, full, coarse)
 
     def _symbol(self, s: Symbol) -> "_SymbolTruth":
         """What the loss needs of one symbol, memoised: an annealing move changes one symbol of a
@@ -285,8 +348,9 @@ class Loss:
         return entry
 
     # -- the two predictive terms
-    def _transition_nll(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
-                        pre: np.ndarray, post: np.ndarray, n_unary: int, n_binary: int, search=None) -> float:
+    def _transition_ll_on(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
+                          pre: np.ndarray, post: np.ndarray, n_unary: int,
+                          n_binary: int, search=None) -> tuple[np.ndarray, Neighbourhood | None]:
         """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``); ``search``:
         the neighbour search if not the backend's (``signature_neighbours``)."""
         m = u.shape[1]
@@ -294,11 +358,11 @@ class Loss:
         # sure): a symbol must not pay for merely existing, only for its mispredictions
         n_lit = m * n_unary + m * (m - 1) * n_binary
         if n_lit == 0:
-            return 0.0
+            return np.zeros(len(pre)), None
         nb = (search or self.backend.neighbours)(up, bp, self._lock, self._label)
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
-        return float(-self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit).sum())
+        return self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit), nb
 
     def _reward_nll(self, nb: Neighbourhood) -> float:
         """``nb``: the neighbours of the states before each transition (exact: the backend's pass

@@ -59,7 +59,7 @@ def units(out: Path) -> dict[str, dict]:
     got = {}
     for p in sorted((out / "runs").glob("*.json")):
         doc = json.loads(p.read_text())
-        doc.pop("seconds")
+        doc.pop("seconds"), doc.pop("cpu_seconds", None)   # the timings
         got[p.name] = doc
     return got
 

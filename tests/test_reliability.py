@@ -188,6 +188,8 @@ def test_loading_refuses_parts_of_different_models(data, model, tmp_path, capsys
     (["--planner-opt", "prada:samples=x"], "--planner-opt samples=x"),
     (["--planner-opt", "prada:bogus=1"], "unknown option for planner 'prada'"),
     (["--unary", "0", "--binary", "0"], "need at least one symbol"),
+    (["--loss", "reward_model=nearest"], "reward_model must be one of neighbour, linear"),
+    (["--loss", "bogus=1"], "--loss bogus: unknown setting"),
 ])
 def test_evaluate_validates_before_writing_config(tmp_path, capsys, bad, message):
     from groundsym.evaluation.config import EvalConfig

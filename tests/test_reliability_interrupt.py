@@ -162,7 +162,7 @@ def evaluation(out: Path) -> tuple[dict, dict, dict]:
     units = {}
     for p in sorted((out / "runs").glob("*.json")):
         doc = json.loads(p.read_text())
-        doc.pop("seconds")
+        doc.pop("seconds"), doc.pop("cpu_seconds", None)
         units[p.name] = doc
     models = {str(p.relative_to(out)): p.read_text() for p in sorted((out / "models").rglob("*")) if p.is_file()}
     return results, units, models

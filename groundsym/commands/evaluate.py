@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..errors import UserError
-from ..evaluation.config import RULE_DATA, EvalConfig
+from ..evaluation.config import MODEL_DATA, RULE_DATA, EvalConfig
 from ..evaluation.protocol import evaluate, optimum_of
 from ..evaluation.store import check_config
 from ..evaluation.tables import markdown_table
@@ -22,6 +22,7 @@ from ..sim import warn_if_older_cell
 from ..limits import (MAX_EVALS, MAX_RESTARTS, MAX_RUNS, MAX_STARTS, MAX_STEPS, MAX_SYMBOLS, MAX_TRACES,
                       MAX_TRANSITIONS, MAX_WORKERS)
 from ._common import SEED, Count, add_sim_args, sim_options
+from .learn import LOSS_KEYS, loss_config
 
 NAME = "evaluate"
 HELP = "compare planners under the paper's protocol (runs x start states), results as JSON, Markdown, PNG"
@@ -69,6 +70,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="what NID rules, the reward model and the NN baselines learn from: the fresh --model-traces "
                    "(model, the paper's protocol and the default) or the run's symbol data too (all; with "
                    "--truth-symbols the symbol data is then collected too); docs/planning.md")
+    p.add_argument("--loss", action="append", default=[], metavar="KEY=VALUE",
+                   help="symbol-learning loss setting, repeatable, as groundsym learn takes it: " + ", ".join(LOSS_KEYS))
+    p.add_argument("--model-data-scope", dest="model_data", choices=MODEL_DATA, default="unit",
+                   help="who collects the model traces: every unit (a run at one symbol-data size; unit, the "
+                   "default, so earlier folders resume) or the run (run: its sizes share them, and RANDOM and "
+                   "CONTINUOUS-NN, which read no symbols, play once per run and model-trace count; "
+                   "docs/planning.md)")
     p.add_argument("-o", "--output", required=True, help="results folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -122,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
                      model_traces=parse_list(args.model_traces, "--model-traces", MAX_TRACES, "traces"), seed=args.seed,
                      evals=args.evals, steps=args.steps, starts=args.starts, unary=args.unary, binary=args.binary,
                      restarts=args.restarts, sim_options=given, planner_options=popts, truth_symbols=truth,
-                     rule_data=args.rule_data)
+                     rule_data=args.rule_data, loss=loss_config(args.loss), model_data=args.model_data)
     optimum = optimum_of(args.sim, given)
     _warn_if_resuming_an_older_cell(Path(args.output) / "results.json", args.sim)
     check_executor_options(args.executor, args.ray_address)

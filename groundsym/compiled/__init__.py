@@ -28,6 +28,8 @@ steps) and nothing above it. One module per concern, each named after what it mi
   ``mixtures.transition_entries``, ``mixtures.reward_entries``, ``mixtures.mixture_ll`` of
   :mod:`groundsym.mixtures`);
 - :mod:`.truth`: symbols' truth on the data (reference: ``Symbol.holds``);
+- :mod:`.counts`: the linear reward term's relational counts (reference: ``count_features`` of
+  :mod:`groundsym.reward_term`);
 - :mod:`.base`: numba itself and what the others share.
 
 numba compiles on first use and caches the machine code on disk (``cache=True``: beside these
@@ -45,16 +47,18 @@ from .batch import canonical_batch, new_state_memo
 from .canonical import (COMPILED_CANONICAL, colour_order, colours, individualise, needing_search, refine_row,
                         twin_groups_row)
 from .classes import group_keys, neighbourhood, new_intern
+from .counts import count_features
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import MAX_OBJECTS, nearest_classes, new_memo
 from .signatures import argument_literals, nearest_by_signature, view_keys
 from .truth import rbf_holds, rbf_holds_columns, scaled_distances_columns
 
 __all__ = [
-    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "argument_literals", "canonical_batch", "colour_order", "colours", "group_keys", "individualise",
-    "mixture_sums", "nearest_by_signature", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
-    "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
-    "twin_groups_row", "view_keys", "warm_up",
+    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "argument_literals", "canonical_batch", "colour_order", "colours",
+    "count_features", "group_keys", "individualise",
+    "mixture_sums", "nearest_by_signature", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo",
+    "new_state_memo", "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries",
+    "reward_mixture", "transition_entries", "transition_mixture", "twin_groups_row", "view_keys", "warm_up",
 ]
 
 
@@ -91,6 +95,7 @@ def warm_up() -> float:
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
         rbf_holds_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2))
         scaled_distances_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2), np.ones(2, dtype=np.bool_))
+        count_features(u, b)
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):

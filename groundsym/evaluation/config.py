@@ -22,6 +22,10 @@ from ..sim import cell_identity
 # Rules fitted on 2-5 examples each are overconfident; on all data a run already holds they are
 # calibrated and more likely on held-out data (docs/rules.md, "Calibration").
 RULE_DATA = ("model", "all")
+# ``unit``: every unit (run x symbol-data size) collects its own model traces; ``run``: the sizes of a
+# run share them, and the methods that read no symbols (RANDOM, CONTINUOUS-NN) play once per run and
+# model-trace count instead of once per size (docs/planning.md, "What a unit costs").
+MODEL_DATA = ("unit", "run")
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,8 @@ class EvalConfig:
     planner_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     truth_symbols: tuple[str, ...] = ()
     rule_data: str = "model"       # what rules and reward learn from: RULE_DATA (docs/planning.md)
+    loss: LossConfig = LossConfig()  # the symbol-learning loss (`--loss`, as `groundsym learn` takes it)
+    model_data: str = "unit"       # who collects the model traces: MODEL_DATA
 
     def key(self) -> dict[str, Any]:
         """The options, plus the annealer's and the loss's settings that they imply (so results from
@@ -51,12 +57,14 @@ class EvalConfig:
         d = asdict(self)
         if self.rule_data == "model":       # the paper's protocol: folders from before the option resume
             del d["rule_data"]
+        if self.model_data == "unit":       # likewise for folders from before per-run model data
+            del d["model_data"]
         d["sim_options"] = dict(sorted(self.sim_options.items()))
         d["sim_cell"] = cell_identity(self.sim, self.sim_options)   # defaults and cell version too
         d["planner_options"] = {k: dict(sorted(v.items())) for k, v in sorted(self.planner_options.items())}
         learned = not self.truth_symbols
         d["anneal"] = self.anneal_config().to_doc() if learned else None
-        d["loss"] = LossConfig().to_doc() if learned else None
+        d["loss"] = self.loss.to_doc() if learned else None
         return d
 
     def anneal_config(self) -> AnnealConfig:
@@ -92,5 +100,7 @@ def validate(cfg: EvalConfig) -> None:
             raise UserError(f"--planner-opt {method}:...: {method} is not among --methods")
     if cfg.rule_data not in RULE_DATA:
         raise UserError(f"--rule-data {cfg.rule_data}: expected one of {', '.join(RULE_DATA)}")
+    if cfg.model_data not in MODEL_DATA:
+        raise UserError(f"--model-data-scope {cfg.model_data}: expected one of {', '.join(MODEL_DATA)}")
     if not cfg.truth_symbols:
         cfg.anneal_config()

@@ -40,12 +40,13 @@ def check_config(out: Path, cfg: EvalConfig) -> None:
 
 
 def save_unit(out: Path, result: Mapping[str, Any]) -> None:
-    """Write a finished unit's models, then its record (whose presence means the unit is done)."""
+    """Write a finished unit's models, then its record (whose presence means the unit is done); a
+    whole run's result (``units``: a record per symbol-data size) writes every record last."""
     for folder, files in result["models"].items():
         for name, text in files.items():
             atomic_write_text(out / "models" / folder / name, text)
-    unit = result["unit"]
-    atomic_write_json(unit_path(out, unit["symbol_data"], unit["run"]), unit)
+    for unit in result.get("units") or [result["unit"]]:
+        atomic_write_json(unit_path(out, unit["symbol_data"], unit["run"]), unit)
 
 
 def finished_units(out: Path, cfg: EvalConfig, runs: int) -> list[dict[str, Any]]:
