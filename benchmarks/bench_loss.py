@@ -153,9 +153,12 @@ def _time_terms(loss: Loss) -> dict[str, float]:
             finally:
                 spent[term] += time.process_time() - t
         return run
-    loss._transition_nll = timed(loss._transition_nll, "prediction")
+    loss._transition_ll = timed(loss._transition_ll, "prediction")
+    loss._transition_ll_backoff = timed(loss._transition_ll_backoff, "prediction")
     loss._reward_nll = timed(loss._reward_nll, "reward")
     loss_module.profile_neighbours = timed(loss_module.profile_neighbours, "reward")
+    loss_module.linear_reward_nll = timed(loss_module.linear_reward_nll, "reward")
+    loss.backend.count_features = timed(loss.backend.count_features, "reward")
     backend_neighbours = loss.backend.neighbours
     loss.backend.neighbours = lambda u, b, lock, label: (      # the exact reward pass: no locks
         timed(backend_neighbours, "reward" if not lock.any() else "prediction_pass")(u, b, lock, label))
