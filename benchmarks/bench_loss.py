@@ -127,13 +127,43 @@ def curve_cell(objects: int, transitions: int, n_unary: int, n_binary: int, eval
     data = prepare(kinematic_tower(max(transitions // 10, 1), seed=1, n_cubes=objects))
     cfg = AnnealConfig(n_unary=n_unary, n_binary=n_binary, evals=evals * 4, restarts=4)
     loss = Loss(data, LossConfig(distance=distance))
+    spent = _time_terms(loss)
     state = start_restart(0, 0, loss, cfg)
     t0 = time.process_time()
     while state.done < evals and time.process_time() - t0 < max_cpu:
         state = advance(state, loss, cfg, 5)
     cpu = time.process_time() - t0
     return {"objects": objects, "transitions": data.n_transitions, "symbols": f"{n_unary}+{n_binary}",
-            "distance": distance, "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu}
+            "distance": distance, "evals": loss.evaluations, "cpu_s": cpu, "rate": loss.evaluations / cpu,
+            **{f"{term}_share": t / cpu for term, t in spent.items()}}
+
+
+def _time_terms(loss: Loss) -> dict[str, float]:
+    """CPU seconds of the loss's prediction term (its neighbours and mixtures) and of its reward
+    term (the reward's neighbours, exact or by profile, and its mixture), added up while ``loss``
+    runs: the reward term is reported apart (a new reward model is to replace it)."""
+    import groundsym.loss as loss_module
+    spent = {"prediction": 0.0, "reward": 0.0}
+
+    def timed(fn, term):
+        def run(*a, **k):
+            t = time.process_time()
+            try:
+                return fn(*a, **k)
+            finally:
+                spent[term] += time.process_time() - t
+        return run
+    loss._transition_ll = timed(loss._transition_ll, "prediction")
+    loss._transition_ll_backoff = timed(loss._transition_ll_backoff, "prediction")
+    loss._reward_nll = timed(loss._reward_nll, "reward")
+    loss_module.profile_neighbours = timed(loss_module.profile_neighbours, "reward")
+    loss_module.linear_reward_nll = timed(loss_module.linear_reward_nll, "reward")
+    loss.backend.count_features = timed(loss.backend.count_features, "reward")
+    backend_neighbours = loss.backend.neighbours
+    loss.backend.neighbours = lambda u, b, lock, label: (      # the exact reward pass: no locks
+        timed(backend_neighbours, "reward" if not lock.any() else "prediction_pass")(u, b, lock, label))
+    spent["prediction_pass"] = 0.0
+    return spent
 
 
 def curve(sizes: list[int], transitions: list[int], evals: int, max_cpu: float, processes: int,
@@ -206,7 +236,7 @@ def main() -> int:
     ap.add_argument("--sizes", default="7,10,14,20,30,40", help="--curve: numbers of objects, comma-separated")
     ap.add_argument("--transitions", default="160,1000", help="--curve: numbers of transitions, comma-separated")
     ap.add_argument("--distances", default="exact", help="--curve: the loss's distance settings, comma-separated "
-                    "(exact, local:K, auto)")
+                    "(exact, local:K, auto, signature)")
     ap.add_argument("--exact-sizes", help="--curve: the sizes the exact distance is measured at (default: --sizes); "
                     "one search block at 30 objects can take minutes")
     ap.add_argument("--symbols", default="1+1,2+1", help="--curve: unary+binary symbol counts, comma-separated")

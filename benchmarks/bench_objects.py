@@ -45,6 +45,7 @@ from bench_prada import Timer, build_model  # noqa: E402
 from groundsym.fileio import atomic_write_bytes, atomic_write_json  # noqa: E402
 from groundsym.planner import Observation, PlanningModel  # noqa: E402
 from planners.prada import PradaPlanner  # noqa: E402
+from planners.prada.frontier import TRANSITION_MODES  # noqa: E402
 
 TOWER_DOMAIN = ROOT / "domains" / "reference" / "tower" / "domain.ppddl"
 TRACE_LENGTH = 20
@@ -93,6 +94,42 @@ def prada_row(pm: PlanningModel, m: int, repeats: int) -> dict[str, Any]:
     return {"objects": m, "ground_atoms": int(g.n_vars), "ground_rules": int(len(g.rule_group)),
             "ground_actions": int(len(g.actions)), "grounding_cpu_s": ground,
             "decision_cpu_s": float(np.median(times)), "shares": shares}
+
+
+def transition_modes(pm: PlanningModel, m: int, repeats: int) -> dict[str, Any]:
+    """PRADA's ``transition`` option (``tables``, ``auto``, ``segments``) at ``m`` objects: CPU
+    seconds of a decision and of its transition steps for each, in turns, each decision from the
+    same seed, and whether ``auto`` decides exactly as ``tables`` (the code before) does."""
+    objects = tuple(f"o{i + 1}" for i in range(m))
+    obs = Observation(objects, (), frozenset())
+    planners = {mode: PradaPlanner(pm, {"horizon": "4", "samples": "500", "transition": mode}, seed=0)
+                for mode in TRANSITION_MODES}
+    for p in planners.values():
+        p.choose(obs)                                                    # grounding and warm-up
+    decision = {mode: 0.0 for mode in planners}
+    step = {mode: 0.0 for mode in planners}
+    made: dict[str, list] = {mode: [] for mode in planners}
+    original = prada_core.transition
+    for r in range(repeats):
+        for mode, planner in planners.items():
+            planner.rng = np.random.default_rng(r)
+
+            def timed(*a, _mode=mode):
+                t = time.process_time()
+                try:
+                    return original(*a)
+                finally:
+                    step[_mode] += time.process_time() - t
+            prada_core.transition = timed
+            try:
+                d, spent = cpu(lambda: planner.choose(obs))
+            finally:
+                prada_core.transition = original
+            decision[mode] += spent / repeats
+            made[mode].append((d.action, d.expected_value, d.info))
+    return {"objects": m, "decision_cpu_s": decision, "transition_cpu_s": {k: v / repeats for k, v in step.items()},
+            "auto_same_as_tables": made["auto"] == made["tables"],
+            "segments_same_as_tables": made["segments"] == made["tables"]}
 
 
 def tower_dataset(m: int, transitions: int, seed: int):
@@ -176,6 +213,8 @@ def main() -> int:
     ap.add_argument("--transitions", type=int, default=160, help="transitions the rule learner learns from")
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--no-profile", action="store_true", help="skip the rule learner's profile")
+    ap.add_argument("--compare", action="store_true", help="also PRADA's transition options (tables, auto, "
+                    "segments) against each other, in turns, and whether they decide alike")
     ap.add_argument("--out", type=Path, default=None, help="folder for objects.json and objects.png")
     args = ap.parse_args()
     counts = [int(x) for x in args.objects.split(",") if x.strip()]
@@ -195,6 +234,16 @@ def main() -> int:
         shares = ", ".join(f"{k} {v:.0%}" for k, v in sorted(row["shares"].items()))
         print(f"{m:>3} {row['ground_atoms']:>6} {row['ground_rules']:>8} {row['ground_actions']:>7} "
               f"{row['grounding_cpu_s']:>9.3f} {row['decision_cpu_s']:>10.3f}  {shares}", flush=True)
+    if args.compare:
+        doc["transition"] = []
+        print(f"\n{'M':>3}  decision CPU s (transition steps) per --planner-opt transition=...; same decisions as tables")
+        for m in counts:
+            row = transition_modes(pm, m, args.repeats)
+            doc["transition"].append(row)
+            cells = "  ".join(f"{k} {row['decision_cpu_s'][k]:.3f} ({row['transition_cpu_s'][k]:.3f})"
+                              for k in TRANSITION_MODES)
+            print(f"{m:>3}  {cells};  auto {row['auto_same_as_tables']}, segments {row['segments_same_as_tables']}",
+                  flush=True)
     print(f"\n{'M':>3} {'transitions':>11} {'rules':>5} {'examples s':>10} {'learn s':>8}")
     for m in counts:
         row = rules_row(m, args.transitions, args.seed)

@@ -21,7 +21,7 @@ QUICK: dict[str, list[str]] = {
     "bench_canonical.py": [],
     "bench_distance.py": ["--pairs", "2"],
     "bench_loss.py": ["--evals", "150"],
-    "bench_objects.py": ["--objects", "7,10", "--repeats", "1", "--transitions", "40", "--no-profile"],
+    "bench_objects.py": ["--objects", "7,10", "--repeats", "1", "--transitions", "40", "--no-profile", "--compare"],
     "bench_parser.py": ["--sizes", "300"],
     "bench_pass.py": ["--evals", "60", "--rounds", "1"],
     "bench_ppddl_sim.py": ["--steps", "100", "--rounds", "1"],

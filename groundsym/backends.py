@@ -114,6 +114,7 @@ class NumbaBackend(Backend):
         self._intern = compiled.new_intern()
         self._pair_memo = compiled.new_memo()
         self._memo_sizes = (0, 0, 0, 0)
+        self._column_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     @staticmethod
     def available() -> bool:
@@ -145,10 +146,22 @@ class NumbaBackend(Backend):
         return Neighbourhood(*fields)
 
     def symbol_truth(self, s: Symbol, space: np.ndarray) -> np.ndarray:
-        col = compiled.rbf_holds(space.reshape(-1, space.shape[-1]), s.centre, s.widths).reshape(space.shape[:-1])
+        col = compiled.rbf_holds_columns(self._columns(space), s.centre, s.widths).reshape(space.shape[:-1])
         if s.arity == 2:
             col &= _off_diagonal(space.shape[1])
         return col
+
+    def _columns(self, space: np.ndarray) -> np.ndarray:
+        """``space``'s points by dimension (n, P), kept for the spaces a loss asks about again and
+        again (its features and pair features): :func:`compiled.rbf_holds_columns` reads them so."""
+        key = (id(space), space.shape)
+        hit = self._column_cache.get(key)
+        if hit is None or hit[0] is not space:
+            if len(self._column_cache) >= 4:
+                self._column_cache.clear()
+            hit = (space, np.ascontiguousarray(space.reshape(-1, space.shape[-1]).T))
+            self._column_cache[key] = hit
+        return hit[1]
 
     def transition_ll(self, u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray, nb: Neighbourhood,
                       changes: bool, log_eps: float, log_ok: float, n_lit: int) -> np.ndarray:

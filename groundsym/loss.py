@@ -50,6 +50,7 @@ from .errors import UserError
 from .neighbourhood import Neighbourhood
 from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
+from .signature_neighbours import argument_view, signature_neighbours
 from .reward_term import linear_reward_nll
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
@@ -243,6 +244,7 @@ class Loss:
         self._lock, self._label = data.lock.astype(np.int64), data.label.astype(np.int64)
         self._no_lock, self._no_label = np.zeros_like(self._lock), np.zeros(n, dtype=np.int64)
         self.local_steps = Distance.parse(config.distance).steps_for(data.features.shape[1])  # None: exact
+        self._by_signature = Distance.parse(config.distance).kind == "signature"   # local:1 views, assignment kernel
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -304,6 +306,9 @@ class Loss:
         d = self.data
         if self.local_steps is None:
             return self._transition_ll_on(u, b, u[d.pre], b[d.pre], d.pre, d.post, n_unary, n_binary)
+        if self._by_signature:   # local:1's views as object bits, matched by signature assignment
+            su, sb, pre, post = argument_view(u, b, d.pre, d.post, d.lock)
+            return self._transition_ll_on(su, sb, su[pre], sb[pre], pre, post, n_unary, n_binary, signature_neighbours)
         # prediction: each transition's states under its local mask
         lu, lb, pre, post = local_view(u, b, d.pre, d.post, d.lock, self.local_steps)
         return self._transition_ll_on(lu, lb, lu[pre], lb[pre], pre, post, n_unary, n_binary)
@@ -345,15 +350,16 @@ class Loss:
     # -- the two predictive terms
     def _transition_ll_on(self, u: np.ndarray, b: np.ndarray, up: np.ndarray, bp: np.ndarray,
                           pre: np.ndarray, post: np.ndarray, n_unary: int,
-                          n_binary: int) -> tuple[np.ndarray, Neighbourhood | None]:
-        """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``)."""
+                          n_binary: int, search=None) -> tuple[np.ndarray, Neighbourhood | None]:
+        """``up``, ``bp``: the states before each transition (``u[pre]``, ``b[pre]``); ``search``:
+        the neighbour search if not the backend's (``signature_neighbours``)."""
         m = u.shape[1]
         # literals of every candidate symbol, pruned ones included (those are predicted right for
         # sure): a symbol must not pay for merely existing, only for its mispredictions
         n_lit = m * n_unary + m * (m - 1) * n_binary
         if n_lit == 0:
             return np.zeros(len(pre)), None
-        nb = self.backend.neighbours(up, bp, self._lock, self._label)
+        nb = (search or self.backend.neighbours)(up, bp, self._lock, self._label)
         changes = self.config.predict == "changes"
         log_eps, log_ok = math.log(self.config.noise), math.log1p(-self.config.noise)
         return self.backend.transition_ll(u, b, pre, post, nb, changes, log_eps, log_ok, n_lit), nb

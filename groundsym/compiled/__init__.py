@@ -50,14 +50,15 @@ from .classes import group_keys, neighbourhood, new_intern
 from .counts import count_features
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import MAX_OBJECTS, nearest_classes, new_memo
-from .truth import rbf_holds
+from .signatures import argument_literals, nearest_by_signature, view_keys
+from .truth import rbf_holds, rbf_holds_columns, scaled_distances_columns
 
 __all__ = [
-    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "canonical_batch", "colour_order", "colours", "count_features",
-    "group_keys", "individualise",
-    "mixture_sums", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo", "new_state_memo",
-    "rbf_holds", "refine_row", "reward_entries", "reward_mixture", "transition_entries", "transition_mixture",
-    "twin_groups_row", "warm_up",
+    "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "argument_literals", "canonical_batch", "colour_order", "colours",
+    "count_features", "group_keys", "individualise",
+    "mixture_sums", "nearest_by_signature", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo",
+    "new_state_memo", "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries",
+    "reward_mixture", "transition_entries", "transition_mixture", "twin_groups_row", "view_keys", "warm_up",
 ]
 
 
@@ -92,6 +93,8 @@ def warm_up() -> float:
         mixture_sums(item, np.exp(diff), weight, 2)
         reward_mixture(cls, cls, one, one, np.zeros(2), -1.0, 2.0)
         rbf_holds(np.zeros((3, 2)), np.zeros(2), np.ones(2))
+        rbf_holds_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2))
+        scaled_distances_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2), np.ones(2, dtype=np.bool_))
         count_features(u, b)
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
@@ -99,6 +102,11 @@ def warm_up() -> float:
             cyc[0, i, (i + 1) % 4, 0] = 1
         canonical_forms(np.zeros((1, 4, 1), dtype=np.uint8), cyc, np.zeros((1, 4), dtype=np.int64),
                         kernels=COMPILED_CANONICAL)
+        lock1 = np.array([[1, 0, 0], [1, 0, 0]], dtype=np.int64)
+        bits = argument_literals(u, b, np.array([0, 1]), np.array([1, 0]), lock1, 1)
+        perms1, sigs, keys = view_keys(bits[:2], lock1, np.zeros(2, dtype=np.int64), 1)
+        nearest_by_signature(keys, sigs, np.array([2, 2]), np.array([0, 1]), np.array([0, 1]), 2, 2 + bits.shape[2],
+                             bits.shape[2])
         z4 = np.zeros((1, 4), dtype=np.int64)
         canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, new_state_memo())
     return time.perf_counter() - t0

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: The distances the loss offers, by name (``LossConfig.distance``).
-DISTANCE_KINDS = ("exact", "local", "auto")
+DISTANCE_KINDS = ("exact", "local", "auto", "signature")
 #: ``local`` without a step count.
 DEFAULT_STEPS = 1
 #: ``auto`` is exact up to this many objects and ``local:1`` above (docs/symbol-search.md).
@@ -43,17 +43,19 @@ AUTO_EXACT_MAX = 10
 
 @dataclass(frozen=True)
 class Distance:
-    """A parsed ``LossConfig.distance``: ``exact``, ``local:K`` (K >= 1 relation steps) or ``auto``."""
+    """A parsed ``LossConfig.distance``: ``exact``, ``local:K`` (K >= 1 relation steps), ``auto``, or
+    ``signature`` (the ``local:1`` views matched by signature assignment,
+    :mod:`groundsym.signature_neighbours`)."""
 
     kind: str
     steps: int = DEFAULT_STEPS
 
     @staticmethod
     def parse(text: str) -> "Distance":
-        """``exact``, ``local``, ``local:K`` or ``auto``; ValueError naming the setting otherwise."""
+        """``exact``, ``local``, ``local:K``, ``auto`` or ``signature``; ValueError naming the setting otherwise."""
         kind, _, steps = text.partition(":")
         if kind not in DISTANCE_KINDS or (steps and kind != "local"):
-            raise ValueError(f"distance must be exact, local[:K] or auto, got {text!r}")
+            raise ValueError(f"distance must be exact, local[:K], auto or signature, got {text!r}")
         if not steps:
             return Distance(kind)
         if not steps.isdigit() or not 1 <= int(steps) <= 62:

@@ -40,8 +40,9 @@ class PradaCore:
 
     def __init__(self, g: Grounding, reward: RewardFn, horizon: int, samples: int, gamma: float,
                  choice: str = "max", restricted: bool = False, min_prob: float = RULE_MIN_PROB,
-                 threshold: float = 0.0, max_runs: int = 1):
+                 threshold: float = 0.0, max_runs: int = 1, transition_mode: str = "auto"):
         self.g, self.reward = g, reward
+        self.transition_mode = transition_mode
         self.horizon, self.samples, self.gamma, self.choice = horizon, samples, gamma, choice
         self.min_prob, self.threshold, self.max_runs = min_prob, threshold, max_runs
         self.discounts = gamma ** np.arange(horizon + 1)
@@ -68,7 +69,7 @@ class PradaCore:
         if key not in self._subs:
             self._subs[key] = PradaCore(subgrounding(self.g, ~dead), self.reward, self.horizon, self.samples,
                                         self.gamma, self.choice, True, self.min_prob, self.threshold,
-                                        self.max_runs)
+                                        self.max_runs, self.transition_mode)
         return self._subs[key]
 
     def sample(self, b0: np.ndarray, rng: np.random.Generator, banned: Sequence[Atom] = ()
@@ -88,7 +89,7 @@ class PradaCore:
                 W[:, ban] = 0.0
             chosen = sample_rows(W, rng)
             seqs[:, t] = chosen
-            B = transition(g, B, U, chosen)
+            B = transition(g, B, U, chosen, self.transition_mode)
             value = value + self.discounts[t + 1] * self.reward(B)
         return seqs, value
 
@@ -99,7 +100,7 @@ class PradaCore:
         for t in range(self.horizon):
             col = seqs[:, t] if t < seqs.shape[1] else np.full(len(seqs), -1)
             U = rule_probabilities(self.g, B, self.min_prob)
-            B = transition(self.g, B, U, col)
+            B = transition(self.g, B, U, col, self.transition_mode)
             value = value + self.discounts[t + 1] * self.reward(B)
         return value
 

@@ -18,6 +18,13 @@ import numpy as np
 
 from groundsym.logic import Atom, is_variable
 
+from .segments import csr_union
+
+
+#: Rule tables up to this many entries are dense (BLAS products); larger ones sparse, and their
+#: transition walks each sample's own action's rules (:mod:`planners.prada.segments`).
+DENSE_MAX_ENTRIES = 2_000_000
+
 
 @dataclass(frozen=True, eq=False)
 class Grounding:
@@ -83,9 +90,18 @@ class Grounding:
             cols, touched, set_true = None, self.touched, self.set_true
         else:
             touched, set_true = self.touched[:, cols], self.set_true[:, cols]
-        if touched.shape[0] * touched.shape[1] <= 2_000_000:     # small (<= 16 MB): dense, BLAS products
+        if touched.shape[0] * touched.shape[1] <= DENSE_MAX_ENTRIES:     # small (<= 16 MB): dense, BLAS products
             return cols, touched.toarray(), set_true.toarray()
         return cols, touched.tocsc(), set_true.tocsc()
+
+    @cached_property
+    def changing_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The tables of :attr:`changing` by rule, on one CSR structure (indptr, columns, touched,
+        set_true): what :mod:`planners.prada.segments` walks per sample."""
+        from scipy.sparse import csr_matrix
+
+        _, touched, set_true = self.changing
+        return csr_union(csr_matrix(touched), csr_matrix(set_true))
 
 
 def ground_rules(rules: Any, objects: Sequence[str], predicates: Mapping[str, int],

@@ -17,7 +17,7 @@ from groundsym.planner import Decision, Observation, PlanningModel
 from groundsym.rules.model import with_derived
 
 from .core import PradaCore
-from .frontier import RULE_MIN_PROB
+from .frontier import RULE_MIN_PROB, TRANSITION_MODES
 from .grounding import ground_rules, subgrounding
 from .rewards import RewardFn, goal_reward, model_reward
 
@@ -62,6 +62,9 @@ class PradaPlanner:
         Option("actions", one_of("all", "legal"), "all", "all: sample every grounding of the rules "
                "(libPRADA); legal: only the primitives the world offers (the observation's actions, "
                "e.g. with object types), at every step of a sequence"),
+        Option("transition", one_of(*TRANSITION_MODES), "auto", "how a step multiplies the chosen rules "
+               "into the atoms: segments (each sample's own action's rules), tables (all rules), auto "
+               "(segments where the tables are sparse, the same bits; docs/tower.md)"),
         Option("references", one_of("rivals", "unique"), "rivals", "rivals: every binding of a rule's "
                "references is a ground rule that rivals the others; unique: NID's semantics, a rule "
                "covers only when exactly one binding does (docs/kinder.md)"),
@@ -103,7 +106,7 @@ class PradaPlanner:
             gamma = self.opts["gamma"] if self.opts["gamma"] is not None else self.model.gamma
             o = self.opts
             self._cores[key] = PradaCore(g, reward, o["horizon"], o["samples"], gamma, o["choice"],
-                                         False, o["rule_min_prob"], o["threshold"], o["max_runs"])
+                                         False, o["rule_min_prob"], o["threshold"], o["max_runs"], o["transition"])
         return self._cores[key]
 
     def choose(self, observation: Observation) -> Decision:
