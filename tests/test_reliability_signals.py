@@ -52,6 +52,20 @@ def hidden(folder: Path) -> list[str]:
     return sorted(str(p.relative_to(folder)) for p in folder.rglob(".*"))
 
 
+@pytest.fixture(autouse=True)
+def stop_signals_as_a_terminal_gives_them():
+    """The tests that run a command in this process need the stop signals as a terminal gives them:
+    under ``nohup``, or in a script's background job, SIGHUP or SIGINT arrive ignored, and a command
+    rightly keeps an ignored signal ignored (so the tests would measure how they were started)."""
+    saved = {s: signal.getsignal(s) for s in (signal.SIGHUP, signal.SIGINT, signal.SIGTERM)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    yield
+    for s, handler in saved.items():
+        signal.signal(s, handler)
+
+
 @pytest.mark.parametrize("sig,status,said", STOPS, ids=["SIGTERM", "SIGHUP"])
 @pytest.mark.parametrize("name", ["collect", "learn", "evaluate", "plan", "simulate", "report"])
 def test_a_stop_signal_in_every_long_command_is_one_line_and_its_status(
