@@ -249,7 +249,7 @@ class Loss:
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
         self.evaluations += 1
-        d, c = self.data, self.config
+        c = self.config
         unary = [self._symbol(s) for s in symbols if s.arity == 1]
         binary = [self._symbol(s) for s in symbols if s.arity == 2]
         au = [e for e in unary if e.active]

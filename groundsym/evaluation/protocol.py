@@ -43,7 +43,7 @@ from ..executors import ProcessExecutor, RayExecutor
 from ..figures import bar_chart
 from ..fileio import atomic_write_bytes, atomic_write_json, atomic_write_text
 from ..grounding import match_symbols
-from ..loss import LossConfig, prepare
+from ..loss import prepare
 from ..modeldir import learn_symbolic_model, load_model
 from ..planner import PlanningModel, make_planner
 from ..progress import Progress
