@@ -40,9 +40,11 @@ spawned). Where fork does not exist the platform's default start method is used 
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing as mp
 import os
 import signal
+import sys
 from contextlib import contextmanager
 from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterator, Sequence
@@ -56,20 +58,46 @@ CONTEXT = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp
 #: killed by it would look to the main process like one that crashed.
 STOP_SIGNALS = frozenset({signal.SIGINT, *(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))})
 
+#: prctl(2)'s request for a signal on the parent's death (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
+
 
 def no_init() -> None:
     """The initialiser of workers that need no per-process state."""
 
 
+def _die_with_parent(parent: int | None) -> None:
+    """On Linux, have the kernel SIGKILL this worker when the process that started it (``parent``)
+    dies, however it dies.
+
+    Workers ignore SIGTERM (the main process acts on it), so without this a main process killed
+    outright (``kill -9``, out of memory, or a script that drives groundsym in-process and dies on
+    SIGTERM's default action) left its workers computing their current job, which can be a whole
+    annealing round of minutes, before they noticed the closed pipe. Elsewhere the closed pipe is
+    the only sign, as before."""
+    if parent is None or not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):     # no prctl here: the closed pipe still stops the worker
+        return
+    if os.getppid() != parent:            # the main process died before the request took hold
+        os._exit(1)
+
+
 def _serve(conn: Connection, init: Callable[..., None], init_args: tuple,
-           main_ends: Sequence[Connection] = ()) -> None:
+           main_ends: Sequence[Connection] = (), parent: int | None = None) -> None:
     """A worker: ignore the stopping signals, close the main process's pipe ends it inherited, initialise, then
     run ``(function, job)`` pairs until the pipe closes or brings None; each answer is
     ``(True, result)`` or ``(False, exception)``.
 
     The main process's ends are closed first because a forked worker holds copies of them: with
     its own copy of the other end open, the pipe never closes when the main process dies (``kill
-    -9``, out of memory), and the worker would wait on it for ever."""
+    -9``, out of memory), and the worker would wait on it for ever. A closed pipe is only seen
+    between jobs, though, so the worker also asks to die with the main process
+    (:func:`_die_with_parent`): a job can be a whole annealing round."""
+    _die_with_parent(parent)
     for sig in STOP_SIGNALS:
         signal.signal(sig, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)   # blocked by running() while forking
@@ -112,7 +140,8 @@ class Workers:
         try:
             for _ in range(n):
                 mine, theirs = ctx.Pipe()
-                p = ctx.Process(target=_serve, args=(theirs, init, init_args, (mine, *self.conns)), daemon=True)
+                p = ctx.Process(target=_serve, args=(theirs, init, init_args, (mine, *self.conns), os.getpid()),
+                                daemon=True)
                 p.start()
                 theirs.close()
                 self.procs.append(p)

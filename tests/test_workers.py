@@ -148,3 +148,55 @@ def test_a_consumer_that_stops_reading_units_kills_the_workers():
     assert len(workers) == 2
     units.close()
     assert not workers & descendants(os.getpid())
+
+
+_DRIVER = """
+import sys, time
+sys.path.insert(0, {tests!r})
+from test_workers import _sleep, CTX
+from groundsym.workers import running
+with running(2, ctx=CTX) as workers:
+    print(*[p.pid for p in workers.procs], flush=True)
+    workers.map(_sleep, [600.0, 600.0])
+"""
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="needs Linux's prctl")
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM])
+def test_workers_in_the_middle_of_a_job_die_with_a_main_process_killed_outright(how):
+    """A driver that dies without stopping its workers (``kill -9``; SIGTERM's default action in a
+    script that uses groundsym in-process) must not leave them computing: their job here would run
+    ten minutes, and they only see the closed pipe between jobs."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    code = _DRIVER.format(tests=str(Path(__file__).parent))
+    driver = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True,
+                              start_new_session=True)
+    try:
+        pids = [int(p) for p in driver.stdout.readline().split()]
+        assert len(pids) == 2
+        time.sleep(0.5)                                   # both workers are inside their job
+        assert all(_alive(p) for p in pids)
+        driver.send_signal(how)
+        assert driver.wait(timeout=30) == -how
+        deadline = time.monotonic() + 10
+        while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not any(_alive(p) for p in pids)
+    finally:
+        try:
+            os.killpg(driver.pid, signal.SIGKILL)         # the driver's session: nothing is left
+        except ProcessLookupError:
+            pass
+
+
+def _alive(pid: int) -> bool:
+    """Is ``pid`` a live process (not a zombie: a killed worker whose reaper is gone is re-parented
+    and reaped by init, but may be seen for a moment before)?"""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+

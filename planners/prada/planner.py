@@ -52,7 +52,8 @@ class PradaPlanner:
                "threshold is not met (then the best sequence found is run anyway)"),
         Option("retries", _retries, None, "a primitive that left the abstract state unchanged is "
                "tried again in that same state at most this many times (then only other first "
-               "actions are sampled until the state changes); default: no limit, as libPRADA"),
+               "actions are sampled in that state, for as long as retry_memory says); default: no "
+               "limit, as libPRADA"),
         Option("retry_memory", one_of("episode", "visit"), "episode", "episode: a primitive banned by "
                "retries stays banned in that state for the rest of the episode; visit: the counts are "
                "forgotten when the state changes, so a return to the state may try it again (the world "
