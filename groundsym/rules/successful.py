@@ -35,7 +35,7 @@ import numpy as np
 from ..logic import Atom, Literal, is_variable
 from .contexts import atoms_over
 from .coverage import Coverage, Example, ExampleTable
-from .frequency import THRESHOLDS, accept_frequency, choose_threshold, context_mask, noise_count, noise_rate
+from .frequency import THRESHOLDS, accept_frequency, choose_threshold, context_mask, noise_rate
 from .language import types_of
 from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
 from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Outcome, Rule, RuleSet, _bindings
@@ -186,19 +186,18 @@ def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.nda
              eps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Masks of the atoms whose addition (deletion) shows in at least ``share`` of the examples
     where it could show (the atom false before; true before): the effects, with changes that noise
-    alone explains left out (``share`` is at least three times the estimated noise). With flips at
-    rate ``eps`` an atom no step changes is still seen changed, one way, with chance
-    ``eps (1 - eps)`` per step; a change seen no more often than that gives with chance
-    :data:`~groundsym.rules.frequency.NOISE_LEVEL` is noise too (an action seen 10 times at 5%
-    showed rovers' ``(can_traverse ?r ?p ?x)`` deleted twice: a share of 0.2, no effect)."""
-    n = max(int(round(float(w.sum()))), 1)
-    floor = max(share * w.sum(), noise_count(n, eps * (1 - eps)) + 1 if eps > 0 else 0)
+    alone explains left out (``share`` is at least three times the estimated noise). With flips
+    (``eps`` > 0) a change must also show in more than half of the steps where it could: an
+    effect shows there with chance ``1 - eps``, a flip with chance about ``eps``, so the
+    likelihood favours the effect exactly then. Rovers' ``communicate_rock_data`` (10 steps at 5%)
+    showed ``(can_traverse ?r ?p ?x)`` deleted in 2 of 8 such steps: a share of 0.25, no effect."""
+    cut = max(share, 0.5 + 1e-9) if eps > 0 else share
 
     def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
         den, num = w @ could, w @ (could & did)
-        often = num >= floor   # and in that share of all the examples: a rarely true atom
+        often = num >= share * w.sum()   # and in that share of all the examples: a rarely true atom
         return np.where((den > 0) & often, num / np.maximum(den, 1e-300), 0.0)   # flipped back is noise
-    return frac(~before, after) >= share, frac(before, ~after) >= share
+    return frac(~before, after) >= cut, frac(before, ~after) >= cut
 
 
 def _reduce(e: Example, variables: tuple[str, ...], atoms: list[Atom], before: np.ndarray, after: np.ndarray,
