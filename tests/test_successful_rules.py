@@ -1,6 +1,7 @@
 """Learning from successful-only traces (groundsym/rules/successful.py, frequency.py, language.py)
-and the operator export (groundsym/ppddl/operators.py), checked against a known typed STRIPS domain: the learned operators
-must act exactly as the true ones on every reachable state, also from noisy observations."""
+and the operator export (groundsym/ppddl/operators.py), checked against a known typed STRIPS
+domain: the learned operators must act exactly as the true ones on every reachable state, also
+from noisy observations."""
 
 from __future__ import annotations
 
