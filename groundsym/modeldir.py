@@ -34,7 +34,8 @@ from .reward import RewardModel, fit_reward, read_reward, write_reward
 from .rules.evaluate import score_ruleset
 from .rules.io import read_rules, write_rules, write_rules_text
 from .rules.learner import ALPHA, LearnOptions, examples_from_dataset, learn_rules
-from .rules.successful import Language, SuccessOptions, has_failures, learn_from_successes
+from .rules.language import Language
+from .rules.successful import SuccessOptions, has_failures, learn_from_successes
 from .rules.model import P_MIN, RuleSet
 from .symbolic_traces import SymbolicDataset, object_types, read_symbolic_traces, symbolic_traces_doc
 

@@ -48,12 +48,14 @@ def test_clean_trajectories_give_the_reference_operators(domain, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("domain", ["barman", "elevators", "matchingbw", "nomystery"])
+@pytest.mark.parametrize("domain", ["barman", "elevators", "matchingbw", "nomystery", "rovers"])
 def test_flipped_atoms_lose_no_reference_precondition(domain, tmp_path):
     """1% and 5% of the well-typed atoms flipped in every state (seed 0, as the table's noisy
     cells): every precondition of the reference domain stays in the learned operator, so no
-    operator applies where the reference's does not (these four domains had false plans when a
-    rarely seen action's precondition seen false once or twice by flips was dropped)."""
+    operator applies where the reference's does not (barman, elevators, matchingbw and nomystery
+    had false plans when a rarely seen action's precondition seen false once or twice by flips was
+    dropped; rovers at 5% when its ``communicate_*`` actions, whose steps mostly repeat a
+    waypoint, fell back to a noise-free context)."""
     import contextlib
     import io
 

@@ -19,7 +19,8 @@ from ..modeldir import check_model_output, learn_symbolic_model, model_transacti
 from ..loss import LossConfig, prepare
 from ..progress import Progress
 from ..rules.learner import examples_from_dataset
-from ..rules.successful import Language, has_failures, trace_language
+from ..rules.language import Language, trace_language
+from ..rules.successful import has_failures
 from ..provenance import provenance
 from ..options import split_key_values
 from ..sim import warn_if_older_cell

@@ -12,22 +12,9 @@ Effects are the lifted changes seen often enough; the rule's outcomes and their 
 then induced on the examples as for any NID rule (:func:`induce_outcomes`), so stochastic
 actions keep several outcomes and a noise outcome (docs/rules.md, Successful-only traces).
 
-Choosing the threshold: the examples are split (seeded) into a training and a held-out part. For
-each threshold the literals at or above it are the *precondition group*, modelled as true except
-for one noise rate shared by the whole group (noise is the same for every atom); every other
-literal is modelled by its own frequency. The held-out log-likelihood of the literal observations
-rises while true preconditions (seen true at one common rate) join the group and falls once a
-literal that is merely often true joins. Held-out data cannot tell a true precondition seen at the
-noise rate from a literal that merely happens to hold as often, so among the thresholds within
-``slack`` nats of the best the lowest (the most specific context, the safe side) is taken.
-
-The noise rate itself comes from the data: an atom over the action's arguments that is no effect
-keeps its value from state to successor, so where it differs an observation was flipped. On
-noise-free data it is 0 and the threshold is SAM's 1.0 (no choice to make); with noise, a literal
-is also kept when its false observations are as many as flips at that rate give with chance at
-least ``NOISE_LEVEL`` (the exact binomial tail: an action seen a few times can see a true
-precondition flipped more often than the rate, and a dropped precondition makes false plans). Negated literals the context's positive
-literals already exclude in every observed state are left out (state invariants, as mutexes).
+Choosing the threshold and the noise rate: :mod:`groundsym.rules.frequency`. Negated literals the
+context's positive literals already exclude in every observed state are left out (state
+invariants, as mutexes).
 
 Types: a unary predicate named in ``types`` is an object type (static, from the trace file); a
 literal over it is kept positive only (the operator's parameter type) and only when it holds in
@@ -40,26 +27,20 @@ offered, so ``(not (on ?x ?y))`` appears only where ``on`` can hold at all.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
-from scipy.stats import binom
 
-from ..errors import UserError
 from ..logic import Atom, Literal, is_variable
 from .contexts import atoms_over
 from .coverage import Coverage, Example, ExampleTable
+from .frequency import THRESHOLDS, accept_frequency, choose_threshold, context_mask, noise_rate
+from .language import types_of
 from .learner import DEFAULT_CLIP, LearnReport, RuleFit, _smooth
 from .model import P_MIN, P_MIN_DEFAULT, DefaultRule, Outcome, Rule, RuleSet, _bindings
 from .outcomes import induce_outcomes
 
-#: unchanged pseudo-observations in the noise estimate: a few examples of a small problem say little
-PRIOR_UNCHANGED = 20.0
-#: the chance below which an action's false observations of a literal are more than noise explains:
-#: three standard errors of a normal variable, one-sided; the binomial tail itself is used
-NOISE_LEVEL = 0.00135
-THRESHOLDS = (1.0, 0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.93, 0.9, 0.85, 0.8)
 
 
 @dataclass(frozen=True)
@@ -83,39 +64,6 @@ class SuccessOptions:
     nochange_prior: float = 0.5
     prune: bool = True
     negative: bool = True
-
-
-@dataclass(frozen=True)
-class Language:
-    """The domain's language for successful-only contexts: ``constants`` a context may name beside
-    the action's arguments (PDDL ``:constants``), ``negative`` whether negated literals are offered
-    (PDDL ``:negative-preconditions``; see :func:`learn_from_successes` for why it matters)."""
-
-    constants: tuple[str, ...] = ()
-    negative: bool = True
-
-
-def trace_language(meta: dict, objects: set[str], where: str, constants: Sequence[str] | None = None,
-                   negative: bool | None = None) -> Language:
-    """The language a symbolic traces file declares (``meta.constants``: a list of object names;
-    ``meta.negative_preconditions``: true or false), each part overridden by the caller's option
-    (``groundsym learn --constants``, ``--negative-preconditions``). A constant must be an object
-    of the traces: a misspelt one would silently name nothing (docs/amlgym.md, The domain's language)."""
-    if constants is None:
-        constants = meta.get("constants", [])
-        if not isinstance(constants, list) or not all(isinstance(c, str) and c for c in constants):
-            raise UserError(f"{where}: meta.constants: expected a list of object names, got {constants!r}")
-        field_name = f"{where}: meta.constants"
-    else:
-        field_name = "--constants"
-    unknown = sorted(set(constants) - objects)
-    if unknown:
-        raise UserError(f"{field_name}: {', '.join(map(repr, unknown))} is no object of the traces in {where}")
-    if negative is None:
-        negative = meta.get("negative_preconditions", True)
-        if not isinstance(negative, bool):
-            raise UserError(f"{where}: meta.negative_preconditions: expected true or false, got {negative!r}")
-    return Language(tuple(sorted(set(constants))), negative)
 
 
 def has_failures(examples: Sequence[Example]) -> bool:
@@ -160,15 +108,16 @@ def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int]
     consts = tuple(sorted(set(constants)))
     data = [_action_data(name, arity, groups[(name, arity)], predicates, types, sig, consts, options.negative)
             for name, arity in sorted(groups)]
-    eps = _noise_rate(examples, types, sig, consts)
+    eps = noise_rate(examples, types, sig, consts)
     for d in data:                   # a change noise alone explains is no effect
-        _reduce_all(d, max(options.effect_share, 3 * eps), types)
+        _reduce_all(d, max(options.effect_share, 3 * eps), types, eps)
     if options.threshold is not None:
         theta, curve = options.threshold, {}
     elif eps == 0:                   # noise-free: SAM's safe preconditions, nothing to choose
         theta, curve = 1.0, {}
     else:
-        theta, curve = _choose_threshold(data, options, np.random.default_rng(seed))
+        theta, curve = choose_threshold([(d.truth, d.weights) for d in data], options.thresholds, options.holdout,
+                                        options.slack, np.random.default_rng(seed))
     rules, defaults, report = [], [], LearnReport()
     index = _state_index(examples, types)
     for d in data:
@@ -180,14 +129,6 @@ def learn_from_successes(examples: Sequence[Example], predicates: dict[str, int]
     return RuleSet(tuple(rules), tuple(defaults), options.p_min, options.p_min_default, True, ()), report
 
 
-def _types_of(state: frozenset, types: frozenset) -> dict[str, set[str]]:
-    out: dict[str, set[str]] = {}
-    for a in state:
-        if a.predicate in types and a.arity == 1:
-            out.setdefault(a.args[0], set()).add(a.predicate)
-    return out
-
-
 def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str, int], set[frozenset]]:
     """For each (predicate, position): the types of the objects seen there, each object's as the
     set of its type atoms (a type and its ancestors; ``object`` without types). A negated literal
@@ -195,7 +136,7 @@ def _signatures(examples: Sequence[Example], types: frozenset) -> dict[tuple[str
     sig: dict[tuple[str, int], set[frozenset]] = {}
     for e in examples:
         for s in (e.state, e.succ):
-            kinds = _types_of(s, types)
+            kinds = types_of(s, types)
             for a in s:
                 if a.predicate not in types:
                     for k, o in enumerate(a.args):
@@ -217,7 +158,7 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     after = np.zeros_like(before)
     for i, e in enumerate(kept):
         ground = dict(zip(variables, e.action.args))
-        kinds = _types_of(e.state, types)
+        kinds = types_of(e.state, types)
         for j, a in enumerate(atoms):
             g = a.substitute(ground)
             before[i, j], after[i, j] = g in e.state, g in e.succ
@@ -232,24 +173,31 @@ def _action_data(name: str, arity: int, examples: list[Example], predicates: dic
     return _ActionData(name, variables, lits, truth, w, [], len(types) * arity, (kept, atoms, before, after))
 
 
-def _reduce_all(d: _ActionData, share: float, types: frozenset) -> None:
-    """``d.reduced``: its examples over the action's arguments, changes below ``share`` dropped."""
+def _reduce_all(d: _ActionData, share: float, types: frozenset, eps: float = 0.0) -> None:
+    """``d.reduced``: its examples over the action's arguments, changes below ``share`` (or that
+    flips at rate ``eps`` explain) dropped."""
     kept, atoms, before, after = d.changes
-    effects = d.effects = _effects(atoms, before, after, d.weights, share)
+    effects = d.effects = _effects(atoms, before, after, d.weights, share, eps)
     d.reduced = [_reduce(e, d.variables, atoms, before[i], after[i], effects, types) for i, e in enumerate(kept)
                  if len(set(e.action.args)) == len(e.action.args)]   # outcomes: NID's injective bindings
 
 
-def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float
-             ) -> tuple[np.ndarray, np.ndarray]:
+def _effects(atoms: list[Atom], before: np.ndarray, after: np.ndarray, w: np.ndarray, share: float,
+             eps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Masks of the atoms whose addition (deletion) shows in at least ``share`` of the examples
     where it could show (the atom false before; true before): the effects, with changes that noise
-    alone explains left out (``share`` is at least three times the estimated noise)."""
+    alone explains left out (``share`` is at least three times the estimated noise). With flips
+    (``eps`` > 0) a change must also show in more than half of the steps where it could: an
+    effect shows there with chance ``1 - eps``, a flip with chance about ``eps``, so the
+    likelihood favours the effect exactly then. Rovers' ``communicate_rock_data`` (10 steps at 5%)
+    showed ``(can_traverse ?r ?p ?x)`` deleted in 2 of 8 such steps: a share of 0.25, no effect."""
+    cut = max(share, 0.5 + 1e-9) if eps > 0 else share
+
     def frac(could: np.ndarray, did: np.ndarray) -> np.ndarray:
         den, num = w @ could, w @ (could & did)
         often = num >= share * w.sum()   # and in that share of all the examples: a rarely true atom
         return np.where((den > 0) & often, num / np.maximum(den, 1e-300), 0.0)   # flipped back is noise
-    return frac(~before, after) >= share, frac(before, ~after) >= share
+    return frac(~before, after) >= cut, frac(before, ~after) >= cut
 
 
 def _reduce(e: Example, variables: tuple[str, ...], atoms: list[Atom], before: np.ndarray, after: np.ndarray,
@@ -264,45 +212,6 @@ def _reduce(e: Example, variables: tuple[str, ...], atoms: list[Atom], before: n
     add = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, adds) if m and c and not b}
     rm = {a.substitute(ground) for a, b, c, m in zip(atoms, before, after, dels) if m and b and not c}
     return Example(state, e.action, (state - rm) | add, tuple(e.action.args), e.weight)
-
-
-def _context(truth: np.ndarray, w: np.ndarray, theta: float) -> np.ndarray:
-    """Mask of the literals that hold in at least ``theta`` of the examples (by weight)."""
-    if w.sum() <= 0:
-        return np.zeros(truth.shape[1], dtype=bool)
-    return (w @ truth) / w.sum() >= theta - 1e-12
-
-
-def _choose_threshold(data: list[_ActionData], o: SuccessOptions, rng: np.random.Generator
-                      ) -> tuple[float, dict[str, float]]:
-    """The threshold whose precondition group best predicts held-out literal observations (module
-    docstring); 1.0 when nothing is held out."""
-    parts = []
-    for d in data:
-        held = rng.random(len(d.weights)) < o.holdout
-        parts.append((d.truth[~held], d.weights[~held], d.truth[held], d.weights[held]))
-    if not any(wh.sum() > 0 for *_, wh in parts):
-        return 1.0, {}
-    curve, chosen = {}, {}
-    for theta in o.thresholds:
-        groups = [_context(tt, wt, theta) for tt, wt, _, _ in parts]
-        chosen[theta] = tuple(np.flatnonzero(g).tobytes() for g in groups)
-        miss = sum(float((wt @ ~tt[:, g]).sum()) if g.any() else 0.0
-                   for (tt, wt, _, _), g in zip(parts, groups))
-        seen = sum(float(wt.sum() * g.sum()) for (_, wt, _, _), g in zip(parts, groups))
-        eps = (miss + 0.5) / (seen + 1.0)
-        ll = 0.0
-        for (tt, wt, th, wh), g in zip(parts, groups):
-            n, k = wt.sum(), wt @ tt
-            f = (k + 0.5) / (n + 1.0)
-            h = wh @ th
-            m = wh.sum()
-            p = np.where(g, 1.0 - eps, f)
-            ll += float(np.sum(h * np.log(p) + (m - h) * np.log1p(-p)))
-        curve[f"{theta:g}"] = ll
-    best = max(curve.values())
-    theta = min(t for t in o.thresholds if curve[f"{t:g}"] >= best - o.slack)
-    return max(t for t in o.thresholds if chosen[t] == chosen[theta]), curve   # same contexts: the higher
 
 
 def _state_index(examples: Sequence[Example], types: frozenset) -> tuple[list[frozenset], list[dict]]:
@@ -368,67 +277,23 @@ def _mirrored(lit: Literal, pos: list[Atom], index: list) -> bool:
     return all((y, x) in set(by.get(a.predicate, ())) for by in index for x, y in by.get(a.predicate, ()))
 
 
-def _noise_rate(examples: Sequence[Example], types: frozenset, sig: dict, constants: tuple[str, ...] = ()
-                ) -> float:
-    """The observation noise: in STRIPS an action changes only atoms over its own arguments, so
-    an atom over other objects that differs between state and successor had an observation
-    flipped; with flip rate ``r`` that happens to each well-typed atom with probability
-    ``2 r (1 - r)``. The atoms counted are those the types allow (``sig``). Noise-free data: 0."""
-    arity: dict[str, int] = {}
-    for p, k in sig:
-        arity[p] = max(arity.get(p, 0), k + 1)
-    universe: dict[tuple, int] = {}      # per object set: the well-typed atoms over it
-
-    def atoms(objects: tuple[str, ...], kinds: dict[str, set[str]]) -> int:
-        if objects not in universe:
-            counts: dict[tuple[str, int], int] = {}
-            for o in objects:
-                k = frozenset(kinds.get(o, {"object"}))
-                for key, allowed in sig.items():
-                    counts[key] = counts.get(key, 0) + (k in allowed)
-            universe[objects] = sum(int(np.prod([counts.get((p, k), 0) for k in range(n)]))
-                                    for p, n in arity.items())
-        return universe[objects]
-
-    changed = seen = 0.0
-    for e in examples:
-        kinds = _types_of(e.state, types)
-        args = set(e.action.args) | set(constants)
-        seen += e.weight * (atoms(e.objects, kinds) - atoms(tuple(sorted(args)), kinds))
-        changed += e.weight * sum(1 for a in e.state ^ e.succ
-                                  if a.predicate not in types and a.args and not set(a.args) <= args)
-    if seen <= 0 or changed <= 0:
-        return 0.0
-    q = min(changed / (seen + PRIOR_UNCHANGED), 0.5)
-    return float((1.0 - np.sqrt(1.0 - 2.0 * q)) / 2.0)
-
-
-def _accept(theta: float, eps: float, w: np.ndarray, level: float = NOISE_LEVEL) -> float:
-    """The frequency an action's literal needs: ``theta``, lowered where the action's false
-    observations of a true precondition could be noise: to ``1 - k / n`` for the most false
-    observations ``k`` among its ``n`` examples that flips at rate ``eps`` give with chance at
-    least ``level`` (the exact binomial tail, so an action seen 8 times keeps a literal seen false
-    once at 1% noise; the normal approximation's three standard errors dropped it, and the
-    operator then applied where the reference's does not). Noise-free data (``eps = 0``): ``theta``."""
-    if eps <= 0:
-        return theta
-    n = max(int(round(float(w.sum()))), 1)
-    ks = np.arange(n + 1)
-    k = int(ks[binom.sf(ks - 1, n, eps) >= level].max())
-    return max(0.51, min(theta, 1.0 - k / n))
-
-
 def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, eps: float = 0.0
                 ) -> tuple[Rule | None, DefaultRule, dict]:
-    """The action's rule (context at ``theta``, outcomes induced on what it covers), its default."""
+    """The action's rule (context at ``theta``, outcomes induced on what it covers), its default.
+
+    Where no injective example meets the context (noise and few such examples: rovers'
+    ``communicate_*`` repeat a waypoint in most steps) the context stays, as it rests on every
+    step, and the outcome is SAM's lifted one, as where no step is injective. Falling back to a
+    noise-free context instead dropped every literal seen false once, and the operator applied
+    where the true one does not (rovers at 5%: false plans 0.33; tests/test_successful_repeated.py)."""
     lo, hi = DEFAULT_CLIP
-    accept = theta if o.threshold is not None else _accept(theta, eps, d.weights)
+    accept = theta if o.threshold is not None else accept_frequency(theta, eps, d.weights)
     stats = {"rules": 0, "examples": len(d.reduced), "transitions": float(d.weights.sum()), "score": 0.0,
              "threshold": accept}
     if not len(d.weights):
         return None, DefaultRule(0.5), stats
-    keep = _context(d.truth, d.weights, accept)
-    keep[:d.n_types] = _context(d.truth[:, :d.n_types], d.weights, 1.0)   # types are declared, not observed:
+    keep = context_mask(d.truth, d.weights, accept)
+    keep[:d.n_types] = context_mask(d.truth[:, :d.n_types], d.weights, 1.0)   # types are declared, not observed:
     ctx = [l for l, m in zip(d.literals, keep) if m]                     # no noise excuses a wrong one
     if o.prune:
         ctx = _prune(ctx, {l.atom.predicate for l in d.literals[:d.n_types]}, *index, eps)
@@ -438,8 +303,8 @@ def _fit_action(d: _ActionData, theta: float, o: SuccessOptions, index: list, ep
     named = tuple(sorted({x for l in ctx for x in l.atom.args if not is_variable(x)}))
     table, action, table_ctx = _table(d, ctx, named)
     cov: Coverage = table.cover(action, table_ctx, True)
-    if not len(cov) and accept < 1.0:   # no example meets the frequent literals together (noise, few
-        return _fit_action(d, 1.0, replace(o, threshold=1.0), index, 0.0)   # examples): SAM's context
+    if not len(cov) and accept < 1.0:   # no injective example meets the frequent literals together
+        return _lifted_rule(d, ctx, accept), DefaultRule(0.5), {**stats, "rules": 1}
     rest = np.ones(len(table), dtype=bool)
     rest[cov.index] = False
     wr, ch = table.weights[rest], table.changed[rest]
