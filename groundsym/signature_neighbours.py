@@ -26,13 +26,19 @@ def most_arguments(lock: np.ndarray) -> int:
     return int((lock != 0).sum(axis=1).max()) if len(lock) else 0
 
 
+def signature_bits(n_unary: int, n_binary: int, lock: np.ndarray) -> int:
+    """The bits of one object's signature: its unary literals and, per argument, its relation to
+    and from it per binary symbol."""
+    return n_unary + 2 * most_arguments(lock) * n_binary
+
+
 def argument_view(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray,
                   lock: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each transition's ``local:1`` view with every kept literal as one object's bit, as scene
     arrays ``(u', b', pre', post')`` like :func:`groundsym.relational.local.local_view`'s, ``b'``
     with no binary columns (:func:`groundsym.compiled.signatures.argument_literals`)."""
     n_args = most_arguments(lock)
-    bits = u.shape[2] + 2 * n_args * b.shape[3]
+    bits = signature_bits(u.shape[2], b.shape[3], lock)
     if bits > MAX_SIGNATURE_BITS:
         raise ValueError(f"distance=signature: {u.shape[2]} unary and {b.shape[3]} binary symbols with "
                          f"{n_args} arguments need {bits} signature bits, at most {MAX_SIGNATURE_BITS}")

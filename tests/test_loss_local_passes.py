@@ -110,3 +110,30 @@ def test_signature_loss_values_are_bit_identical_to_the_references(monkeypatch, 
     want = _values(monkeypatch, m, n_unary, evals, reference=True)
     got = _values(monkeypatch, m, n_unary, evals, reference=False)
     assert got == want
+
+
+def _terms_of(config: LossConfig, data, candidates) -> list[dict]:
+    loss = Loss(data, config)
+    return [loss(c).to_doc() for c in candidates]
+
+
+def test_auto_is_exact_up_to_ten_objects_and_signature_above(monkeypatch):
+    """``auto``: the exact loss's values at 10 objects, ``signature``'s at 11, and ``local:1``'s at
+    11 when the symbols need more signature bits than a word (the bound lowered here to 2, below
+    the 3 bits of 1+1 symbols with one argument)."""
+    from groundsym.anneal.proposals import random_symbol
+    from groundsym.relational.local import AUTO_EXACT_MAX, Distance
+    assert not Distance.parse("auto").by_signature(AUTO_EXACT_MAX)
+    assert Distance.parse("auto").by_signature(AUTO_EXACT_MAX + 1) and Distance.parse("signature").by_signature(3)
+    assert not Distance.parse("local:1").by_signature(40) and not Distance.parse("exact").by_signature(40)
+    cfg = AnnealConfig()
+    for m, same_as in ((AUTO_EXACT_MAX, "exact"), (AUTO_EXACT_MAX + 1, "signature")):
+        data = prepare(kinematic_tower(6, seed=4, n_cubes=m))
+        rng = np.random.default_rng(m)
+        cands = [[random_symbol(rng, 1, "u1", data, cfg), random_symbol(rng, 2, "b1", data, cfg)] for _ in range(60)]
+        auto = _terms_of(LossConfig(distance="auto"), data, cands)
+        assert auto == _terms_of(LossConfig(distance=same_as), data, cands)
+        if same_as == "signature":
+            monkeypatch.setattr(loss_module, "MAX_SIGNATURE_BITS", 2)
+            assert _terms_of(LossConfig(distance="auto"), data, cands) == _terms_of(LossConfig(distance="local:1"),
+                                                                                    data, cands)
