@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import njit
-from .classes import _profiles_of, group_keys
+from .classes import _profiles_of, group_keys, lone_classes
 
 
 @njit(cache=True)
@@ -29,18 +29,8 @@ def profile_nearest(u, b, rows):
     prof = _profiles_of(u, b, rows)
     first, cls = group_keys(prof)
     c_n = len(first)
-    sizes = np.zeros(c_n, dtype=np.int64)
-    for i in range(len(cls)):
-        sizes[cls[i]] += 1
-    n_lone = 0
-    for c in range(c_n):
-        n_lone += sizes[c] == 1
-    lone = np.empty(n_lone, dtype=np.int64)
-    t = 0
-    for c in range(c_n):
-        if sizes[c] == 1:
-            lone[t] = c
-            t += 1
+    lone = lone_classes(cls, c_n)
+    n_lone = len(lone)
     k = u.shape[2]
     width = prof.shape[1]
     dist = np.empty(c_n, dtype=np.int64)

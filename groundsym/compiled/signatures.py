@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import njit, popcount
-from .classes import group_keys
+from .classes import group_keys, lone_classes
 from .pair_search import _hungarian
 
 #: Signature bits at most (the canonical sort packs an object's index below them).
@@ -303,18 +303,7 @@ def signature_classes(u, lock, label, n_args):
     perms, sigs, keys = view_keys(u, lock, label, n_args)
     first, cls = group_keys(keys)
     c_n = len(first)
-    sizes = np.zeros(c_n, dtype=np.int64)
-    for i in range(n):
-        sizes[cls[i]] += 1
-    n_lone = 0
-    for c in range(c_n):
-        n_lone += sizes[c] == 1
-    lone = np.empty(n_lone, dtype=np.int64)
-    t = 0
-    for c in range(c_n):
-        if sizes[c] == 1:
-            lone[t] = c
-            t += 1
+    lone = lone_classes(cls, c_n)
     n_free = np.empty(n, dtype=np.int64)
     for i in range(n):
         f = m
