@@ -50,7 +50,7 @@ from .errors import UserError
 from .neighbourhood import Neighbourhood
 from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
-from .signature_neighbours import argument_view, signature_neighbours
+from .signature_neighbours import MAX_SIGNATURE_BITS, argument_view, signature_bits, signature_neighbours
 from .reward_term import linear_reward_nll
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
@@ -75,7 +75,7 @@ class LossConfig:
     reward_sigma: float | None = None  # fixed sigma instead (None: from the data)
     predict: str = "changes"       # what a neighbour at distance > 0 predicts: its "changes" or its "successor"
     width_cap: float = 3.0         # widths beyond this x the spread cost as at it (0: no cap)
-    distance: str = "exact"        # the neighbours' distance: exact, local[:K] or auto (groundsym/relational/local.py)
+    distance: str = "exact"        # the neighbours' distance: exact, local[:K], signature or auto (groundsym/relational/local.py)
     reward_model: str = "neighbour"  # the reward term's predictor: "neighbour" or "linear" (groundsym/reward_term.py)
     static: str = "split"          # static symbols in the prediction term's classes: "split" them, or "backoff"
 
@@ -244,7 +244,7 @@ class Loss:
         self._lock, self._label = data.lock.astype(np.int64), data.label.astype(np.int64)
         self._no_lock, self._no_label = np.zeros_like(self._lock), np.zeros(n, dtype=np.int64)
         self.local_steps = Distance.parse(config.distance).steps_for(data.features.shape[1])  # None: exact
-        self._by_signature = Distance.parse(config.distance).kind == "signature"   # local:1 views, assignment kernel
+        self._by_signature = Distance.parse(config.distance).by_signature(data.features.shape[1])  # local:1 views, assignment kernel
         self.evaluations = 0
 
     def __call__(self, symbols: Sequence[Symbol]) -> LossTerms:
@@ -306,7 +306,9 @@ class Loss:
         d = self.data
         if self.local_steps is None:
             return self._transition_ll_on(u, b, u[d.pre], b[d.pre], d.pre, d.post, n_unary, n_binary)
-        if self._by_signature:   # local:1's views as object bits, matched by signature assignment
+        if self._by_signature and (self.config.distance == "signature"     # auto: local:1 past a word's bits
+                                   or signature_bits(u.shape[2], b.shape[3], d.lock) <= MAX_SIGNATURE_BITS):
+            # local:1's views as object bits, matched by signature assignment
             su, sb, pre, post = argument_view(u, b, d.pre, d.post, d.lock)
             return self._transition_ll_on(su, sb, su[pre], sb[pre], pre, post, n_unary, n_binary, signature_neighbours)
         # prediction: each transition's states under its local mask

@@ -17,13 +17,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compiled.signatures import MAX_SIGNATURE_BITS, argument_literals, nearest_by_signature, view_keys
-from .neighbourhood import Neighbourhood, group_rows
+from .compiled.signatures import MAX_SIGNATURE_BITS, argument_literals, signature_classes
+from .neighbourhood import Neighbourhood
 
 
 def most_arguments(lock: np.ndarray) -> int:
     """The most action arguments of any transition (``lock`` (T, M), != 0 on arguments)."""
     return int((lock != 0).sum(axis=1).max()) if len(lock) else 0
+
+
+def signature_bits(n_unary: int, n_binary: int, lock: np.ndarray) -> int:
+    """The bits of one object's signature: its unary literals and, per argument, its relation to
+    and from it per binary symbol."""
+    return n_unary + 2 * most_arguments(lock) * n_binary
 
 
 def argument_view(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray,
@@ -32,7 +38,7 @@ def argument_view(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarra
     arrays ``(u', b', pre', post')`` like :func:`groundsym.relational.local.local_view`'s, ``b'``
     with no binary columns (:func:`groundsym.compiled.signatures.argument_literals`)."""
     n_args = most_arguments(lock)
-    bits = u.shape[2] + 2 * n_args * b.shape[3]
+    bits = signature_bits(u.shape[2], b.shape[3], lock)
     if bits > MAX_SIGNATURE_BITS:
         raise ValueError(f"distance=signature: {u.shape[2]} unary and {b.shape[3]} binary symbols with "
                          f"{n_args} arguments need {bits} signature bits, at most {MAX_SIGNATURE_BITS}")
@@ -46,15 +52,7 @@ def signature_neighbours(u: np.ndarray, b: np.ndarray, lock: np.ndarray, label: 
     """Leave-one-out nearest neighbours (all ties) of each item among the items of the same
     primitive (``label``) and lock values; ``u`` (N, M, B) the states before of
     :func:`argument_view` (``b``, without binary columns, is not read)."""
-    n, m, w = u.shape
     n_args = most_arguments(lock)
-    lock = np.ascontiguousarray(lock, dtype=np.int64)
-    perms, sigs, keys = view_keys(np.ascontiguousarray(u), lock, np.ascontiguousarray(label, dtype=np.int64), n_args)
-    first, cls = group_rows(keys)
-    sizes = np.bincount(cls, minlength=len(first))
-    lone = np.flatnonzero(sizes == 1).astype(np.int64)
-    arg_lo = 1 + n_args
-    n_free = (m - (lock != 0).sum(axis=1)).astype(np.int64)
-    best, hq, hc, hs = nearest_by_signature(keys, sigs, n_free, first.astype(np.int64), lone,
-                                            arg_lo, arg_lo + n_args * w, w)
-    return Neighbourhood(cls.astype(np.int64), perms, lone, best, hq, hc, hs)
+    fields = signature_classes(np.ascontiguousarray(u), np.ascontiguousarray(lock, dtype=np.int64),
+                               np.ascontiguousarray(label, dtype=np.int64), n_args)
+    return Neighbourhood(*fields)

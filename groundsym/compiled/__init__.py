@@ -27,6 +27,8 @@ steps) and nothing above it. One module per concern, each named after what it mi
 - :mod:`.mixtures`: the transition and reward terms' entries and mixtures (reference:
   ``mixtures.transition_entries``, ``mixtures.reward_entries``, ``mixtures.mixture_ll`` of
   :mod:`groundsym.mixtures`);
+- :mod:`.profiles`: the reward term's neighbours by profile (reference:
+  ``profile_neighbours_reference`` of :mod:`groundsym.profile_neighbours`);
 - :mod:`.truth`: symbols' truth on the data (reference: ``Symbol.holds``);
 - :mod:`.counts`: the linear reward term's relational counts (reference: ``count_features`` of
   :mod:`groundsym.reward_term`);
@@ -50,14 +52,15 @@ from .classes import group_keys, neighbourhood, new_intern
 from .counts import count_features
 from .mixtures import mixture_sums, reward_entries, reward_mixture, transition_entries, transition_mixture
 from .nearest import MAX_OBJECTS, nearest_classes, new_memo
-from .signatures import argument_literals, nearest_by_signature, view_keys
+from .profiles import profile_nearest
+from .signatures import argument_literals, nearest_by_signature, signature_classes, view_keys
 from .truth import rbf_holds, rbf_holds_columns, scaled_distances_columns
 
 __all__ = [
     "AVAILABLE", "COMPILED_CANONICAL", "MAX_OBJECTS", "argument_literals", "canonical_batch", "colour_order", "colours",
     "count_features", "group_keys", "individualise",
     "mixture_sums", "nearest_by_signature", "nearest_classes", "needing_search", "neighbourhood", "new_intern", "new_memo",
-    "new_state_memo", "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries",
+    "new_state_memo", "profile_nearest", "rbf_holds", "rbf_holds_columns", "refine_row", "scaled_distances_columns", "reward_entries", "signature_classes",
     "reward_mixture", "transition_entries", "transition_mixture", "twin_groups_row", "view_keys", "warm_up",
 ]
 
@@ -96,6 +99,7 @@ def warm_up() -> float:
         rbf_holds_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2))
         scaled_distances_columns(np.zeros((2, 3)), np.zeros(2), np.ones(2), np.ones(2, dtype=np.bool_))
         count_features(u, b)
+        profile_nearest(u, b, np.arange(2, dtype=np.int64))
         neighbourhood(u, b, lock, np.zeros(2, dtype=np.int64), new_state_memo(), *new_intern(), *new_memo())
         cyc = np.zeros((1, 4, 4, 1), dtype=np.uint8)     # a directed 4-cycle needs individualisation
         for i in range(4):
@@ -107,6 +111,7 @@ def warm_up() -> float:
         perms1, sigs, keys = view_keys(bits[:2], lock1, np.zeros(2, dtype=np.int64), 1)
         nearest_by_signature(keys, sigs, np.array([2, 2]), np.array([0, 1]), np.array([0, 1]), 2, 2 + bits.shape[2],
                              bits.shape[2])
+        signature_classes(bits[:2], lock1, np.zeros(2, dtype=np.int64), 1)
         z4 = np.zeros((1, 4), dtype=np.int64)
         canonical_batch(np.zeros((1, 4, 1), dtype=np.uint8), cyc, z4, new_state_memo())
     return time.perf_counter() - t0

@@ -66,6 +66,24 @@ def group_keys(keys):
 
 
 @njit(cache=True)
+def lone_classes(cls, c_n):
+    """The classes (of ``c_n``) with exactly one item in ``cls``, in increasing order."""
+    sizes = np.zeros(c_n, dtype=np.int64)
+    for i in range(len(cls)):
+        sizes[cls[i]] += 1
+    n_lone = 0
+    for c in range(c_n):
+        n_lone += sizes[c] == 1
+    lone = np.empty(n_lone, dtype=np.int64)
+    t = 0
+    for c in range(c_n):
+        if sizes[c] == 1:
+            lone[t] = c
+            t += 1
+    return lone
+
+
+@njit(cache=True)
 def _profiles_of(u, b, rows):
     """neighbourhood.class_profiles compiled: unary counts, then sorted out- and in-degrees per binary symbol
     (symbol by symbol, where the reference interleaves the symbols: the profile bound is an L1
@@ -162,18 +180,7 @@ def neighbourhood(u, b, lock, label, state_memo, table, store, memo, sigmas):
     keys = _packed_keys(forms, label, m)
     first, cls = group_keys(keys)
     c_n = len(first)
-    sizes = np.zeros(c_n, dtype=np.int64)
-    for i in range(n):
-        sizes[cls[i]] += 1
-    n_lone = 0
-    for c in range(c_n):
-        n_lone += sizes[c] == 1
-    lone = np.empty(n_lone, dtype=np.int64)
-    t = 0
-    for c in range(c_n):
-        if sizes[c] == 1:
-            lone[t] = c
-            t += 1
+    lone = lone_classes(cls, c_n)
     k = u.shape[2]
     l = b.shape[3]
     ru = np.empty((c_n, m, k), dtype=np.uint8)

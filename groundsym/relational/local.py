@@ -37,13 +37,15 @@ import numpy as np
 DISTANCE_KINDS = ("exact", "local", "auto", "signature")
 #: ``local`` without a step count.
 DEFAULT_STEPS = 1
-#: ``auto`` is exact up to this many objects and ``local:1`` above (docs/symbol-search.md).
+#: ``auto`` is exact up to this many objects and ``signature`` above (``local:1`` where the symbols
+#: need more signature bits than a word holds; docs/symbol-search.md).
 AUTO_EXACT_MAX = 10
 
 
 @dataclass(frozen=True)
 class Distance:
-    """A parsed ``LossConfig.distance``: ``exact``, ``local:K`` (K >= 1 relation steps), ``auto``, or
+    """A parsed ``LossConfig.distance``: ``exact``, ``local:K`` (K >= 1 relation steps), ``auto`` (exact
+    up to :data:`AUTO_EXACT_MAX` objects, ``signature`` above), or
     ``signature`` (the ``local:1`` views matched by signature assignment,
     :mod:`groundsym.signature_neighbours`)."""
 
@@ -67,6 +69,13 @@ class Distance:
         if self.kind == "exact" or (self.kind == "auto" and n_objects <= AUTO_EXACT_MAX):
             return None
         return self.steps
+
+    def by_signature(self, n_objects: int) -> bool:
+        """Whether the neighbours are matched by signature at this many objects: ``signature``,
+        and ``auto`` above :data:`AUTO_EXACT_MAX` (it computes ``local:1``'s distance, faster at every
+        size from 10 objects, and grounded ``on``/``above`` better than ``local:1`` at 10 cubes:
+        docs/symbol-search.md)."""
+        return self.kind == "signature" or (self.kind == "auto" and n_objects > AUTO_EXACT_MAX)
 
 
 def reach(binary: np.ndarray, lock: np.ndarray, steps: int) -> np.ndarray:
