@@ -79,7 +79,7 @@ class LossConfig:
     distance: str = "exact"        # the neighbours' distance: exact, local[:K] or auto (groundsym/relational/local.py)
     reward_model: str = "neighbour"  # the reward term's predictor: "neighbour" or "linear" (groundsym/reward_term.py)
     static: str = "split"          # static symbols in the prediction term's classes: "split" them, or "backoff"
-    sparse_effects: float = 0.0    # nats per literal a transition changes (groundsym/sparse_effects.py; 0: off)
+    sparse_effects: float = 0.0    # nats per literal of a symbol a transition changes beyond its first (groundsym/sparse_effects.py; 0: off)
 
     def __post_init__(self) -> None:
         Distance.parse(self.distance)

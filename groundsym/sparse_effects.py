@@ -11,11 +11,15 @@ tower of height h makes h literals true, "above every cube below", which no sing
 says, so the release rules turn noisy and planning on them loses (docs/planning.md, "Vocabulary
 with size"). With ``on`` the same release changes one literal.
 
-This term charges ``beta`` nats per literal a transition changes, a geometric prior
-``P(k changed literals) ~ exp(-beta k)`` on the size of an effect: the description-length cost of
-listing the effect's literals, as the rule learner will pay it (Rissanen 1978, *Modeling by shortest
-data description*, Automatica 14). Between two relations that predict equally well it prefers the
-one with fewer changes; ``beta = 0`` (the default) leaves the loss as it was.
+This term charges ``beta`` nats for every literal of a symbol that a transition changes beyond
+the first: a geometric prior ``P(k extra literals) ~ exp(-beta k)`` on how far an effect reaches
+beyond one literal per symbol, the description-length cost of listing those literals as the rule
+learner will pay for them (Rissanen 1978, *Modeling by shortest data description*, Automatica 14).
+The first change of each symbol is free: charging every changed literal (measured first) made
+any symbol that changes at all costlier than the effect term's price of seeing no change, and
+the search pruned `inhand` (docs/planning.md, "Vocabulary"). Between two relations that predict
+equally well it prefers the one whose effects stay local; ``beta = 0`` (the default) leaves the
+loss as it was.
 """
 
 from __future__ import annotations
@@ -23,17 +27,27 @@ from __future__ import annotations
 import numpy as np
 
 
+def changes_per_symbol(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray) -> np.ndarray:
+    """(T, K + L): how many literals of each active symbol each transition changes. ``u`` (S, M, K)
+    and ``b`` (S, M, M, L) are the symbols' truth on every scene (uint8, a binary symbol false on
+    the diagonal), ``pre``/``post`` the scene indices before and after each transition."""
+    unary = (u[pre] != u[post]).sum(axis=1)
+    binary = (b[pre] != b[post]).sum(axis=(1, 2))
+    return np.concatenate([unary, binary], axis=1).astype(np.int64)
+
+
 def changed_literals(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray) -> int:
-    """How many literals of the active symbols change over all transitions: ``u`` (S, M, K) and
-    ``b`` (S, M, M, L) are the symbols' truth on every scene (uint8, a binary symbol false on the
-    diagonal), ``pre``/``post`` the scene indices before and after each transition."""
-    unary = int(np.count_nonzero(u[pre] != u[post])) if u.size else 0
-    binary = int(np.count_nonzero(b[pre] != b[post])) if b.size else 0
-    return unary + binary
+    """How many literals of the active symbols change over all transitions."""
+    return int(changes_per_symbol(u, b, pre, post).sum())
+
+
+def excess_changes(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray) -> int:
+    """The changed literals beyond the first of each symbol in each transition."""
+    return int(np.maximum(changes_per_symbol(u, b, pre, post) - 1, 0).sum())
 
 
 def sparse_effects_nll(u: np.ndarray, b: np.ndarray, pre: np.ndarray, post: np.ndarray, beta: float) -> float:
-    """``beta`` nats per changed literal (module docstring); exactly 0.0 when ``beta`` is 0."""
+    """``beta`` nats per excess changed literal (module docstring); exactly 0.0 when ``beta`` is 0."""
     if beta == 0:
         return 0.0
-    return float(beta * changed_literals(u, b, pre, post))
+    return float(beta * excess_changes(u, b, pre, post))

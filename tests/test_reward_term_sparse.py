@@ -10,13 +10,13 @@ import pytest
 from groundsym.commands.learn import loss_config
 from groundsym.errors import UserError
 from groundsym.loss import Loss, LossConfig, prepare
-from groundsym.sparse_effects import changed_literals, sparse_effects_nll
+from groundsym.sparse_effects import changed_literals, excess_changes, sparse_effects_nll
 from groundsym.symbols import Symbol
 
 from test_loss import intended_symbols, kinematic_tower
 
-# a second binary candidate: pairs whose first object stands well above the second
-HIGH = Symbol("b2", 2, np.array([0.0, 0.0, 0.15, 0.0]), np.array([0.02, 0.02, 0.15, 1.0]))
+# a second binary candidate: pairs of objects near each other (a lifted cube leaves several)
+NEAR = Symbol("b2", 2, np.array([0.0, 0.0, 0.0, 0.0]), np.array([0.15, 0.15, 0.15, 1.0]))
 
 
 def _release_onto_a_tower() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -33,13 +33,17 @@ def _release_onto_a_tower() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
 
 def test_a_release_onto_a_tower_changes_more_above_literals_than_on_literals():
-    """By hand: the release makes `inhand(2)` false and `on(2,1)` true (2 literals); with `above`
-    it also makes `above(2,0)` true (3 literals): the height of the tower below."""
+    """By hand: the release makes `inhand(2)` false and `on(2,1)` true (2 literals, one per symbol:
+    no excess); with `above` it also makes `above(2,0)` true (3 literals, one beyond `above`'s
+    first): the height of the tower below."""
     inhand, on, above, pre, post = _release_onto_a_tower()
     assert changed_literals(inhand, on, pre, post) == 2
     assert changed_literals(inhand, above, pre, post) == 3
+    assert excess_changes(inhand, on, pre, post) == 0
+    assert excess_changes(inhand, above, pre, post) == 1
     assert changed_literals(inhand[..., :0], above[..., :0], pre, post) == 0
-    assert sparse_effects_nll(inhand, above, pre, post, 1.5) == 4.5
+    assert sparse_effects_nll(inhand, above, pre, post, 1.5) == 1.5
+    assert sparse_effects_nll(inhand, on, pre, post, 1.5) == 0.0
     assert sparse_effects_nll(inhand, above, pre, post, 0.0) == 0.0
 
 
@@ -49,8 +53,9 @@ def fixture_data():
     return ds, prepare(ds)
 
 
-def _changes_by_loop(loss: Loss, symbols: list[Symbol]) -> int:
-    """Changed literals of the active symbols, counted transition by transition and literal by literal."""
+def _changes_by_loop(loss: Loss, symbols: list[Symbol], excess: bool = False) -> int:
+    """Changed literals of the active symbols (with ``excess``, beyond the first of each symbol in
+    each transition), counted transition by transition and literal by literal."""
     d, count = loss.data, 0
     for s in symbols:
         truth = loss._symbol(s)
@@ -58,17 +63,18 @@ def _changes_by_loop(loss: Loss, symbols: list[Symbol]) -> int:
             continue
         for t in range(d.n_transitions):
             before, after = truth.truth[d.pre[t]], truth.truth[d.post[t]]
-            count += sum(int(x != y) for x, y in zip(before.ravel().tolist(), after.ravel().tolist()))
+            n = sum(int(x != y) for x, y in zip(before.ravel().tolist(), after.ravel().tolist()))
+            count += max(n - 1, 0) if excess else n
     return count
 
 
 def test_the_option_adds_beta_per_changed_literal_to_the_prediction_term(fixture_data):
     _, d = fixture_data
-    symbols = intended_symbols() + [HIGH]
+    symbols = intended_symbols() + [NEAR]
     base = Loss(d)(symbols)
     beta = 0.75
     got = Loss(d, LossConfig(sparse_effects=beta))(symbols)
-    n = _changes_by_loop(Loss(d), symbols)
+    n = _changes_by_loop(Loss(d), symbols, excess=True)
     assert n > 0
     assert got.transition == pytest.approx(base.transition + beta * n, rel=1e-12)
     assert (got.effect, got.reward, got.regulariser) == (base.effect, base.reward, base.regulariser)
@@ -102,6 +108,7 @@ def test_above_changes_more_literals_than_on_on_the_fixture():
     n_on, n_above = changed_literals(u, b, d.pre, d.post), changed_literals(u, above, d.pre, d.post)
     assert n_on == _changes_by_loop(loss, [inhand, on])
     assert n_above > n_on
+    assert excess_changes(u, above, d.pre, d.post) > excess_changes(u, b, d.pre, d.post)
 
 
 @pytest.mark.parametrize("text", ["sparse_effects=-1", "sparse_effects=nan", "sparse_effects=x"])
