@@ -52,6 +52,7 @@ from .profile_neighbours import profile_neighbours
 from .relational.local import Distance, local_view
 from .signature_neighbours import MAX_SIGNATURE_BITS, argument_view, signature_bits, signature_neighbours
 from .reward_term import linear_reward_nll
+from .sparse_effects import sparse_effects_nll
 from .symbols import Symbol, dataset_arrays
 from .traces import Dataset
 
@@ -78,6 +79,7 @@ class LossConfig:
     distance: str = "exact"        # the neighbours' distance: exact, local[:K], signature or auto (groundsym/relational/local.py)
     reward_model: str = "neighbour"  # the reward term's predictor: "neighbour" or "linear" (groundsym/reward_term.py)
     static: str = "split"          # static symbols in the prediction term's classes: "split" them, or "backoff"
+    sparse_effects: float = 0.0    # nats per literal of a symbol a transition changes beyond its first (groundsym/sparse_effects.py; 0: off)
 
     def __post_init__(self) -> None:
         Distance.parse(self.distance)
@@ -97,7 +99,7 @@ class LossConfig:
 
     def to_doc(self) -> dict[str, Any]:
         """The settings as JSON; the settings added later (``distance``, ``reward_model``,
-        ``static``) only when they differ from what a file without them means."""
+        ``static``, ``sparse_effects``) only when they differ from what a file without them means."""
         doc = asdict(self)
         for name, before in _LATER_SETTINGS.items():
             if doc[name] == before:
@@ -108,7 +110,7 @@ class LossConfig:
 # settings added after files were first written, with the value a file without them means: left
 # out of a file at that value, so such files read as before the settings existed (and a file of
 # another value always names it, whatever the current default)
-_LATER_SETTINGS = {"distance": "exact", "reward_model": "neighbour", "static": "split"}
+_LATER_SETTINGS = {"distance": "exact", "reward_model": "neighbour", "static": "split", "sparse_effects": 0.0}
 
 
 @dataclass(frozen=True)
@@ -284,6 +286,8 @@ class Loss:
         else:
             ll = self._transition_ll(u, b, n_unary, n_binary)[0]
         trans = 0.0 - float(ll.sum())     # 0.0, not -0.0, without literals
+        if self.config.sparse_effects:
+            trans += sparse_effects_nll(u, b, d.pre, d.post, self.config.sparse_effects)
         if self.config.reward_model == "linear":
             rew = linear_reward_nll(self.backend.count_features(up, bp), d.reward, self.sigma)
         elif self.local_steps is None:
