@@ -46,7 +46,9 @@ ARM_SWEEP_DISC = 0.0355        # covers the gripper (0.07 x 0.01) wherever it is
 AWAY = 0.5                     # putAway: the held object's centre at least this far from T and R ...
 OFF_LINE = 0.35                # ... and from the segment between them
 BLOCKING = 0.25                # blocking(X): X within this of the target block or the region
+BACK_OFF = 0.05                # after letting go, the base backs off this far (the object stood at its edge)
 HOLD_GAP = 0.006               # an object this close to the suction zone's centre, vacuum on, is held
+PUT_IN = Atom("putInRegion", (TARGET, REGION))
 
 
 # ----------------------------------------------------------------------------- geometry of the state
@@ -176,8 +178,19 @@ def carry_lattice(state: ObjectState, obj: str, anchor: float) -> tuple[Lattice,
     return Lattice(Clearance(obstacles(state, without=[obj])), fp, robot_pose(state)[:3], anchor), fp
 
 
-def release_here() -> Script:
-    return Script([set_vacuum(False)], vacuum=1.0)
+def let_go(state: ObjectState) -> list:
+    """Vacuum off, then back off: the released object stands right at the base's edge (the arm is
+    retracted), where the next path's start would have no margin."""
+    return let_go_at(robot_pose(state)[:3])
+
+
+def let_go_at(pose: Pose) -> list:
+    x, y, theta = pose
+    return [set_vacuum(False), drive_to(x - cos(theta) * BACK_OFF, y - sin(theta) * BACK_OFF)]
+
+
+def release_here(state: ObjectState) -> Script:
+    return Script(let_go(state), vacuum=1.0)
 
 
 def carry_away(state: ObjectState, obj: str, rng: np.random.Generator) -> Controller:
@@ -195,12 +208,13 @@ def carry_away(state: ObjectState, obj: str, rng: np.random.Generator) -> Contro
     ok = ((np.hypot(ox - t.cx, oy - t.cy) >= AWAY) & (np.hypot(ox - r.cx, oy - r.cy) >= AWAY)
           & (segment_distance(ox, oy, (t.cx, t.cy), (r.cx, r.cy)) >= OFF_LINE))
     if not ok.any():
-        return release_here()
+        return release_here(state)
     cost = lattice.dist[k[ok], i[ok], j[ok]]
     order = np.argsort(cost, kind="stable")[: max(1, ok.sum() // 4)]
     pick = int(order[rng.integers(len(order))])
     node = (int(k[ok][pick]), int(i[ok][pick]), int(j[ok][pick]))
-    return Script(follow(lattice.path(node), 1.0) + [set_vacuum(False)], vacuum=1.0)
+    path = lattice.path(node)
+    return Script(follow(path, 1.0) + let_go_at(path[-1]), vacuum=1.0)
 
 
 def segment_distance(px: np.ndarray, py: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> np.ndarray:
@@ -225,8 +239,9 @@ def carry_into(state: ObjectState, obj: str, region: str) -> Controller:
         if node is not None and (best is None or cost < best[0]):
             best = (cost, goal)
     if best is None:
-        return release_here()
-    return Script(follow(lattice.route(best[1]), 1.0) + [set_vacuum(False)], vacuum=1.0)
+        return release_here(state)
+    path = lattice.route(best[1])
+    return Script(follow(path, 1.0) + let_go_at(path[-1]), vacuum=1.0)
 
 
 def _retracted(state: ObjectState) -> Script:
@@ -293,3 +308,38 @@ class ClutteredSim(sim_class(CLUTTERED, "ClutteredSim")):      # type: ignore[mi
         if self.options["reward"] == "graded":
             return replace(scene, reward=graded_reward(self._state()))
         return scene
+
+
+# ----------------------------------------------------------------------------- a scripted policy
+
+def scripted_episode(sim: ClutteredSim, seed: int, budget: int = 3000) -> dict:
+    """The ceiling of these skills on one episode: put away the blocking obstructions (nearest to
+    the robot first), then ``putInRegion``; after a failed ``putInRegion``, put away the
+    obstruction nearest the target block. An obstruction a putAway did not move is not tried
+    again until something else has moved. Success is KinDER's: solved within ``budget`` steps."""
+    sim.reset(seed)
+    stuck: set[str] = set()
+    actions: list[str] = []
+    while not sim.solved() and sim.env_steps < budget:
+        state = sim.state
+        rx, ry = state.get(ROBOT, "x"), state.get(ROBOT, "y")
+        free = [o for o in state.of_type("rectangle") if o not in stuck]
+        blockers = [o for o in free if blocking(state, o)]
+        if blockers:
+            obj = min(blockers, key=lambda o: hypot(rect(state, o).cx - rx, rect(state, o).cy - ry))
+            action = Atom("putAway", (obj,))
+        elif not actions or actions[-1] != str(PUT_IN):
+            action = PUT_IN
+        elif free:
+            t = rect(state, TARGET)
+            action = Atom("putAway", (min(free, key=lambda o: rect(state, o).gap(t)),))
+        else:
+            break
+        before = rect(state, action.args[0])
+        sim.step(action)
+        actions.append(str(action))
+        moved = rect(sim.state, action.args[0]) != before
+        if action.predicate == "putAway":
+            stuck = set() if moved else stuck | {action.args[0]}
+    return {"seed": seed, "success": bool(sim.solved() and sim.env_steps <= budget),
+            "env_steps": int(sim.env_steps), "actions": actions}

@@ -124,14 +124,21 @@ class Clearance:
             ok &= self.sampled(x + c * ox - s * oy, y + s * ox + c * oy) >= r + MARGIN
         return ok
 
-    def segment_free(self, fp: Footprint, a: tuple[float, float], b: tuple[float, float], heading: float) -> bool:
-        """The footprint at ``heading`` along the straight segment a-b, checked every 5 mm exactly."""
+    def segment_free(self, fp: Footprint, a: tuple[float, float], b: tuple[float, float], heading: float,
+                     leaving: bool = False) -> bool:
+        """The footprint at ``heading`` along the straight segment a-b, checked every 5 mm exactly.
+        ``leaving``: a is where the robot stands (KinDER accepted it), perhaps closer than the
+        margin to an object it just let go; no disc may come closer than it starts."""
         n = max(2, ceil(hypot(b[0] - a[0], b[1] - a[1]) / 0.005) + 1)
         t = np.linspace(0, 1, n)[:, None]
         centres = (1 - t) * np.asarray(a) + t * np.asarray(b)
+        need = fp.radii + EXACT_MARGIN
         for k in range(n):
             pts = fp.placed(centres[k, 0], centres[k, 1], heading)
-            if (self.exact(pts[:, 0], pts[:, 1]) < fp.radii + EXACT_MARGIN).any():
+            gap = self.exact(pts[:, 0], pts[:, 1])
+            if k == 0 and leaving:
+                need = np.minimum(need, gap)
+            if (gap < need).any():
                 return False
         return True
 
@@ -195,7 +202,7 @@ class Lattice:
                 continue
             px, py = self.position(i, j)
             c = hypot(px - x, py - y) / STEP
-            if c < cost and self.clear.segment_free(self.fp, (x, y), (px, py), hk):
+            if c < cost and self.clear.segment_free(self.fp, (x, y), (px, py), hk, leaving=True):
                 best, cost = (k, i, j), c
         return best, cost + (2 if self.K > 1 else 0)
 
