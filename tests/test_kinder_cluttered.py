@@ -29,16 +29,25 @@ def _kinder_state(sim):
     return state, {o.name: o for o in state}
 
 
-def test_put_in_region_solves_unobstructed_o1_by_kinders_own_termination():
+def _put_in_region_solved(seeds: range) -> int:
     sim = ClutteredSim(obstructions=1)
     solved = 0
-    for seed in range(10):
+    for seed in seeds:
         sim.reset(seed)
         sim.step(PUT_IN)
         solved += sim.terminated                     # KinDER's is_inside(target_block, target_region)
         assert sim.terminated == sim.solved() == inside(sim.state, TARGET, REGION)
         assert sim.env_steps < 600
-    assert solved >= 9
+    return solved
+
+
+def test_put_in_region_solves_unobstructed_o1_starts():
+    assert _put_in_region_solved(range(3)) == 3
+
+
+@pytest.mark.slow
+def test_put_in_region_solves_9_of_10_o1_starts_by_kinders_own_termination():
+    assert _put_in_region_solved(range(10)) >= 9
 
 
 def test_inside_is_kinders_is_inside_on_moved_blocks():
@@ -119,12 +128,14 @@ def test_holding_is_kinders_suction_and_the_held_footprint_covers_the_block():
         assert all((np.hypot(*(discs - c).T) <= fp.radii + 1e-9).any() for c in corners)
 
 
-def test_put_away_takes_blocking_obstructions_away_in_bounded_steps():
+def _put_away_blocking(seeds: range, per_seed: int) -> tuple[int, int]:
+    """putAway of the blocking obstruction nearest the robot, ``per_seed`` times per start:
+    (tried, moved); every moved one ends away from the target block and region, not blocking."""
     sim = ClutteredSim(obstructions=10)
     moved = tried = 0
-    for seed in range(4):
+    for seed in seeds:
         sim.reset(seed)
-        for _ in range(2):
+        for _ in range(per_seed):
             rx, ry = robot_pose(sim.state)[:2]
             blockers = sorted((o for o in sim.state.of_type("rectangle") if blocking(sim.state, o)),
                               key=lambda o: np.hypot(rect(sim.state, o).cx - rx, rect(sim.state, o).cy - ry))
@@ -142,12 +153,22 @@ def test_put_away_takes_blocking_obstructions_away_in_bounded_steps():
                 assert np.hypot(after.cx - r.cx, after.cy - r.cy) >= AWAY - MARGIN
                 assert not blocking(sim.state, blockers[0])
             assert sim.state.get("robot", "vacuum") == 0.0
+    return tried, moved
+
+
+def test_put_away_takes_a_blocking_obstruction_away():
+    assert _put_away_blocking(range(1), 2) == (2, 2)
+
+
+@pytest.mark.slow
+def test_put_away_takes_blocking_obstructions_away_in_bounded_steps():
+    tried, moved = _put_away_blocking(range(4), 2)
     assert tried >= 6 and moved >= tried - 2
 
 
 def test_same_seed_same_trace():
-    a = collect_traces(ClutteredSim(obstructions=1), 1, 3, 5, progress=False)
-    b = collect_traces(ClutteredSim(obstructions=1), 1, 3, 5, progress=False)
+    a = collect_traces(ClutteredSim(obstructions=1), 1, 2, 5, progress=False)
+    b = collect_traces(ClutteredSim(obstructions=1), 1, 2, 5, progress=False)
     assert [str(x) for x in a.traces[0].actions] == [str(x) for x in b.traces[0].actions]
     assert all(np.array_equal(s.features, t.features) for s, t in zip(a.traces[0].scenes, b.traces[0].scenes))
 
