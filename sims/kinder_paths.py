@@ -191,18 +191,22 @@ class Lattice:
 
     def _connect(self, start: Pose) -> tuple[tuple[int, int, int] | None, float]:
         """The cheapest lattice node the start pose reaches in a straight, checked move."""
-        x, y, h = start
+        return self._link(start, np.where(self.node_free, 0.0, np.inf), leaving=True)
+
+    def _link(self, pose: Pose, base_cost: np.ndarray, leaving: bool) -> tuple[tuple[int, int, int] | None, float]:
+        """The node near ``pose`` of least ``base_cost`` plus the straight move between them, the
+        move checked at the lattice heading nearest the pose's and the turn between the two
+        headings checked at the pose (none for a round footprint: it turns freely)."""
+        x, y, h = pose
         k = self._k_of(h)
         hk = self.heading(k) if self.K > 1 else h
-        if self.K > 1 and not self.clear.turn_free(self.fp, x, y, h, hk):
+        if self.K > 1 and not self.clear.turn_free(self.fp, x, y, hk, h):
             return None, np.inf
         best, cost = None, np.inf
         for i, j in self._near(x, y):
-            if not self.node_free[k, i, j]:
-                continue
             px, py = self.position(i, j)
-            c = hypot(px - x, py - y) / STEP
-            if c < cost and self.clear.segment_free(self.fp, (x, y), (px, py), hk, leaving=True):
+            c = base_cost[k, i, j] + hypot(px - x, py - y) / STEP
+            if c < cost and self.clear.segment_free(self.fp, (x, y), (px, py), hk, leaving=leaving):
                 best, cost = (k, i, j), c
         return best, cost + (2 if self.K > 1 else 0)
 
@@ -246,23 +250,9 @@ class Lattice:
         return [self.start_pose] + chain[::-1]
 
     def connect_goal(self, goal: Pose) -> tuple[tuple[int, int, int] | None, float]:
-        """The reachable node cheapest to ``goal`` by a straight, checked move at the node's
-        heading (the lattice heading nearest the goal's), then a checked turn to the goal's
-        heading (none for a round footprint: it turns freely)."""
-        x, y, h = goal
-        k = self._k_of(h)
-        hk = self.heading(k) if self.K > 1 else h
-        if self.K > 1 and not self.clear.turn_free(self.fp, x, y, hk, h):
-            return None, np.inf
-        best, cost = None, np.inf
-        for i, j in self._near(x, y):
-            if not np.isfinite(self.dist[k, i, j]):
-                continue
-            px, py = self.position(i, j)
-            c = self.dist[k, i, j] + hypot(px - x, py - y) / STEP
-            if c < cost and self.clear.segment_free(self.fp, (px, py), (x, y), hk):
-                best, cost = (k, i, j), c
-        return best, cost + (2 if self.K > 1 else 0)
+        """The reachable node cheapest to ``goal`` (by its path, a straight move at the lattice
+        heading nearest the goal's, and a turn to the goal's heading)."""
+        return self._link(goal, self.dist, leaving=False)
 
     def _near(self, x: float, y: float, cells: int = 3) -> list[tuple[int, int]]:
         i0, j0 = int(round(x / CELL)), int(round(y / CELL))
