@@ -56,10 +56,14 @@ class Rect:
         return np.hypot(np.maximum(np.abs(lx) - self.w / 2, 0), np.maximum(np.abs(ly) - self.h / 2, 0))
 
     def gap(self, other: "Rect") -> float:
-        """Distance between two rectangles: 0 when a corner of one lies in the other, else the
-        least corner-to-rectangle distance (exact for convex shapes that do not cross)."""
+        """Distance between two rectangles: 0 when they overlap (no separating axis among their
+        sides' normals), else the least corner-to-rectangle distance (exact for convex shapes apart)."""
         a, b = self.corners(), other.corners()
-        return float(min(other.distance(a[:, 0], a[:, 1]).min(), self.distance(b[:, 0], b[:, 1]).min()))
+        for t in (self.theta, self.theta + pi / 2, other.theta, other.theta + pi / 2):
+            axis = np.array([cos(t), sin(t)])
+            if (a @ axis).max() < (b @ axis).min() or (b @ axis).max() < (a @ axis).min():
+                return float(min(other.distance(a[:, 0], a[:, 1]).min(), self.distance(b[:, 0], b[:, 1]).min()))
+        return 0.0
 
 
 @dataclass(frozen=True)

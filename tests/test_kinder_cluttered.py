@@ -176,3 +176,19 @@ def test_same_seed_same_trace():
 def test_unknown_variant_is_one_line():
     with pytest.raises(UserError, match="obstructions=3.*1, 10, 25"):
         ClutteredSim(obstructions=3)
+
+
+def test_rect_gap_is_shapelys_distance_for_rectangles_apart():
+    """``blocking``'s gap between two rectangles against shapely's polygon distance (0 when they overlap)."""
+    from shapely import Polygon
+
+    from sims.kinder_paths import Rect
+
+    rng = np.random.default_rng(2)
+    checked = 0
+    for _ in range(300):
+        a, b = (Rect(*rng.uniform(0, 1, 2), rng.uniform(-pi, pi), *rng.uniform(0.05, 0.2, 2)) for _ in range(2))
+        pa, pb = Polygon(a.corners()), Polygon(b.corners())
+        assert a.gap(b) == pytest.approx(pa.distance(pb), abs=1e-9)
+        checked += pa.intersects(pb)
+    assert 10 <= checked <= 290                          # overlapping and apart both exercised
