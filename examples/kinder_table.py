@@ -41,15 +41,19 @@ from groundsym.loss import Loss, LossConfig, prepare
 from groundsym.symbols import Symbol, SymbolSet, dataset_arrays
 from groundsym.traces import read_traces, write_traces
 from sims.kinder2d import ObstructionSim, StickButtonSim
+from sims.kinder_cluttered import ClutteredSim
 
 TASKS = {  # name: (sim class, options, --unary, --binary, KinDER id)
     "b1": (StickButtonSim, {"buttons": 1}, 3, 0, "StickButton2D-b1"),
     "b3": (StickButtonSim, {"buttons": 3}, 3, 0, "StickButton2D-b3"),
     "o1": (ObstructionSim, {"obstructions": 1}, 2, 1, "Obstruction2D-o1"),
     "o3": (ObstructionSim, {"obstructions": 3, "reward": "graded"}, 2, 1, "Obstruction2D-o3"),
+    "c10": (ClutteredSim, {"obstructions": 10, "reward": "graded"}, 2, 1, "ClutteredRetrieval2D-o10"),
 }
+LEARN_OPTIONS = {         # extra `groundsym learn` options per task: 12 objects need the fast loss
+    "c10": ["--loss", "distance=signature"]}
 RELATIONS_TO = {          # unary relations that are about one fixed object: also graded as pairs with it
-    "o1": {"blocking": "target_surface"}, "o3": {"blocking": "target_surface"}}
+    "o1": {"blocking": "target_surface"}, "o3": {"blocking": "target_surface"}, "c10": {"blocking": "target_block"}}
 BUDGET = 3000            # KinDER's environment steps per episode, every step inside a primitive counted
 NO_CAP = 0               # --max-primitives 0: the episode ends only at KinDER's budget (the default)
 PRADA = {"samples": "200",      # sampled action sequences per decision (its default horizon, 4)
@@ -81,7 +85,8 @@ def learn_seed(task: str, seed: int, out: Path, traces: int, length: int, evals:
         print(f"{task} seed {seed}: collected in {time.process_time() - t0:.0f} CPU s", file=sys.stderr)
     if not (model / "symbols.json").exists():
         groundsym(["learn", str(data), "-o", str(model), "--unary", str(unary), "--binary", str(binary),
-                   "--evals", str(evals), "--restarts", "2", "--workers", "1", "--seed", str(seed), "--quiet"])
+                   "--evals", str(evals), "--restarts", "2", "--workers", "1", "--seed", str(seed), "--quiet",
+                   *LEARN_OPTIONS.get(task, [])])
     ds = read_traces(data)
     if not (truth_model / "rules.json").exists():
         write_symbolic_traces(truth_data, truth_dataset(ds, cls))

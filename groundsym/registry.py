@@ -22,6 +22,7 @@ BUILTIN_SIMS = {
     "bowling": "sims.bowling:BowlingSim",
     "kinder-stickbutton": "sims.kinder2d:StickButtonSim",
     "kinder-obstruction": "sims.kinder2d:ObstructionSim",
+    "kinder-cluttered": "sims.kinder_cluttered:ClutteredSim",
 }
 BUILTIN_PLANNERS = {
     "prada": "planners.prada:PradaPlanner",
