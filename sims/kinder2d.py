@@ -29,7 +29,6 @@ docs/kinder.md says what the world lacks (released blocks stay where they are: n
 
 from __future__ import annotations
 
-from dataclasses import replace
 from math import cos, pi, sin
 from typing import Any, Iterable, Mapping
 
@@ -38,7 +37,6 @@ import numpy as np
 from groundsym.errors import UserError
 from groundsym.logic import Atom
 from groundsym.options import Option, one_of
-from groundsym.world import Scene
 
 from .kinder2d_skills import (ROBOT, Script, arm_to, drive_to, rect_centre, set_vacuum, tool_tip,
                               turn_to, until)
@@ -323,7 +321,7 @@ OBSTRUCTION = WorldSpec(
     primitives=(Primitive("putOnTable", (BLOCK_TYPES,), chain(pick_block, place_on_table), max_steps=400),
                 Primitive("putOnTarget", (BLOCK_TYPES, "target_surface"), chain(pick_block, place_on_target),
                           max_steps=400)),
-    reward=target_on_surface, truth=obstruction_truth,
+    reward=target_on_surface, graded_reward=graded_obstruction_reward, truth=obstruction_truth,
     truth_predicates={"on": 2, "blocking": 1, "targetBlock": 1},
     success=lambda s, terminated: is_on(s, "target_block", "target_surface"),
     episode_length=10, gamma=0.95,
@@ -335,11 +333,4 @@ OBSTRUCTION = WorldSpec(
 StickButtonSim = sim_class(STICKBUTTON, "StickButtonSim")
 
 
-class ObstructionSim(sim_class(OBSTRUCTION, "ObstructionSim")):      # type: ignore[misc]
-    """Obstruction2D, with ``reward=graded`` computed from the same state when asked for."""
-
-    def scene(self) -> Scene:
-        scene = super().scene()
-        if self.options["reward"] == "graded":
-            return replace(scene, reward=graded_obstruction_reward(self._state()))
-        return scene
+ObstructionSim = sim_class(OBSTRUCTION, "ObstructionSim")

@@ -117,7 +117,9 @@ class WorldSpec:
 
     ``make_env(options)`` builds the Gymnasium environment; ``read_state(env, obs)`` turns an
     observation into an :class:`ObjectState`; ``reward(state, env_reward, terminated)`` is the
-    scene's reward (default: the environment's own); ``truth(state)`` the atoms that hold, for
+    scene's reward (default: the environment's own); ``graded_reward(state)``, when given, is the
+    reward instead where the sim's option ``reward`` is ``graded`` (a task whose own reward is too
+    sparse for random traces, said so in its docs); ``truth(state)`` the atoms that hold, for
     evaluation only; ``success(state, terminated)`` whether the task is solved (default: the
     environment terminated).
     """
@@ -129,6 +131,7 @@ class WorldSpec:
     type_features: Mapping[str, FeatureMap]
     primitives: tuple[Primitive, ...]
     reward: Callable[[ObjectState, float, bool], float] | None = None
+    graded_reward: Callable[[ObjectState], float] | None = None
     truth: Callable[[ObjectState], Iterable[Atom]] | None = None
     truth_predicates: Mapping[str, int] = field(default_factory=dict)
     success: Callable[[ObjectState, bool], bool] | None = None
@@ -224,7 +227,10 @@ class ObjectCentricSim:
             raise ValueError(f"{self.name}: a type map gave {features.shape[1]} features, "
                              f"feature_names has {len(self.feature_names)}")
         spec = self.SPEC
-        reward = spec.reward(state, self.env_reward, self.terminated) if spec.reward else self.env_reward
+        if spec.graded_reward is not None and self.options.get("reward") == "graded":
+            reward = spec.graded_reward(state)
+        else:
+            reward = spec.reward(state, self.env_reward, self.terminated) if spec.reward else self.env_reward
         truth = frozenset(spec.truth(state)) if spec.truth else frozenset()
         return Scene(self.objects, features, float(reward), truth)
 
